@@ -1,0 +1,42 @@
+#include "core/params.hpp"
+
+namespace ringsim {
+
+// These names are the configuration values (docs/CONFIG.md); keep them
+// lowercase and stable, they appear in scenario files and output provenance.
+
+const char* to_string(Boundary b) {
+  switch (b) {
+    case Boundary::Reflective: return "reflective";
+    case Boundary::Periodic: return "periodic";
+  }
+  return "?";
+}
+
+const char* to_string(CombineRule r) {
+  switch (r) {
+    case CombineRule::Min: return "min";
+    case CombineRule::Max: return "max";
+    case CombineRule::Product: return "product";
+    case CombineRule::Mean: return "mean";
+  }
+  return "?";
+}
+
+const char* to_string(VelocityInit v) {
+  switch (v) {
+    case VelocityInit::Uniform: return "uniform";
+    case VelocityInit::Thermal: return "thermal";
+  }
+  return "?";
+}
+
+const char* to_string(QueueKind q) {
+  switch (q) {
+    case QueueKind::Fast: return "fast";
+    case QueueKind::Reference: return "reference";
+  }
+  return "?";
+}
+
+}  // namespace ringsim
