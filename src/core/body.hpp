@@ -1,0 +1,65 @@
+#pragma once
+// Bodies: spheres and linkers (solid cylinders), in flat arrays indexed by a
+// stable id (0 .. N-1; spheres first, then linkers).
+//
+// Kinematics are stored lazily ("delayed states", as in Smallenburg's EDMD):
+// each body carries its own reference time t and its state at that time; the
+// pose at any later time is a pure function of it (core/motion.hpp).
+//
+// Invariants of Kinematics, all world frame, reduced units:
+//  - x: centre position at time t (periodic boxes: in [0, L) up to rounding);
+//  - v: centre velocity, constant between events;
+//  - axis: unit symmetry axis at time t (linkers; spheres keep (0,0,1));
+//  - precession: the constant vector Omega = L / I_perp. A free symmetric top's
+//    axis turns rigidly about Omega at rate |Omega| (so the *shape* of a
+//    linker moves as a uniform rotation; its spin about the axis never moves
+//    it). For spheres, precession is the (constant) angular velocity;
+//  - spin: lambda = (L.axis)(1/I_axial - 1/I_perp), constant; the angular
+//    velocity is omega(t) = Omega + lambda * axis(t). Spheres: 0.
+
+#include <cstdint>
+#include <vector>
+
+#include "core/vec.hpp"
+
+namespace ringsim {
+
+enum class Shape : std::uint8_t { Sphere = 0, Linker = 1 };
+
+struct Kinematics {
+  Vec3 x;
+  Vec3 v;
+  Vec3 axis;
+  Vec3 precession;
+  double spin;
+  double t;
+};
+
+// Per-species constants (shape, mass, inertia, contact material).
+struct Species {
+  Shape shape;
+  double radius;
+  double half_length;      // 0 for spheres
+  double bounding_radius;  // max distance from centre to the solid
+  double mass;
+  double i_axial;          // moment about the symmetry axis (spheres: the moment)
+  double i_perp;           // moment about a transverse axis (spheres: the moment)
+  double restitution;
+  double static_friction;
+  double dynamic_friction;
+};
+
+struct BodyStore {
+  std::vector<Kinematics> kin;
+  std::vector<Shape> shape;
+  // Number of trajectory changes (impulses) so far: an event predicted against
+  // a partner is valid only while the partner's counter is unchanged.
+  std::vector<std::uint32_t> counter;
+  std::vector<double> last_collision;  // time of the last impulse (TC model)
+  Species species[2];
+
+  int size() const { return static_cast<int>(kin.size()); }
+  const Species& sp(int i) const { return species[static_cast<int>(shape[i])]; }
+};
+
+}  // namespace ringsim

@@ -1,0 +1,87 @@
+#include "core/cell_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace ringsim {
+
+CellGrid::CellGrid(double box_length, double min_cell, int bodies, bool periodic)
+    : box_(box_length), periodic_(periodic) {
+  n_ = std::max(1, static_cast<int>(std::floor(box_length / min_cell)));
+  // Cap memory for tiny interaction ranges in huge boxes (~ a few cells per body).
+  const int cap = std::max(1, static_cast<int>(std::cbrt(8.0 * std::max(bodies, 1))));
+  n_ = std::min(n_, std::max(cap, 1));
+  w_ = box_length / n_;
+  head_.assign(static_cast<std::size_t>(n_) * n_ * n_, -1);
+  next_.assign(bodies, -1);
+  prev_.assign(bodies, -1);
+  cell_.assign(bodies, -1);
+  // With fewer than 3 cells along a side of a periodic box, offsets -1 and +1
+  // reach the same cell: keep each distinct cell once.
+  std::vector<int> offs = n_ >= 3 ? std::vector<int>{-1, 0, 1} : (n_ == 2 ? std::vector<int>{0, 1} : std::vector<int>{0});
+  if (!periodic_) offs = {-1, 0, 1};  // out-of-range cells are skipped instead
+  nb_count_ = 0;
+  for (int a : offs)
+    for (int b : offs)
+      for (int c : offs) offsets_[nb_count_++] = {a, b, c};
+}
+
+int CellGrid::locate(const Vec3& x) const {
+  int ic[3];
+  for (int d = 0; d < 3; ++d) ic[d] = std::clamp(static_cast<int>(std::floor(x[d] / w_)), 0, n_ - 1);
+  return index(ic[0], ic[1], ic[2]);
+}
+
+void CellGrid::link(int body, int cell) {
+  cell_[body] = cell;
+  prev_[body] = -1;
+  next_[body] = head_[cell];
+  if (head_[cell] >= 0) prev_[head_[cell]] = body;
+  head_[cell] = body;
+}
+
+void CellGrid::unlink(int body) {
+  const int c = cell_[body];
+  if (prev_[body] >= 0) next_[prev_[body]] = next_[body]; else head_[c] = next_[body];
+  if (next_[body] >= 0) prev_[next_[body]] = prev_[body];
+  next_[body] = prev_[body] = -1;
+}
+
+void CellGrid::insert(int body, const Vec3& x) { link(body, locate(x)); }
+
+void CellGrid::move(int body, int new_cell) {
+  unlink(body);
+  link(body, new_cell);
+}
+
+CellGrid::Exit CellGrid::exit_time(int cell, const Vec3& x, const Vec3& v) const {
+  const auto cc = coords(cell);
+  Exit best{std::numeric_limits<double>::infinity(), 0, 0};
+  for (int d = 0; d < 3; ++d) {
+    if (v[d] > 0.0) {
+      const double dt = ((cc[d] + 1) * w_ - x[d]) / v[d];
+      if (dt < best.dt) best = {dt, d, +1};
+    } else if (v[d] < 0.0) {
+      const double dt = (cc[d] * w_ - x[d]) / v[d];
+      if (dt < best.dt) best = {dt, d, -1};
+    }
+  }
+  if (best.dt < 0.0) best.dt = 0.0;  // rounding just after a crossing
+  return best;
+}
+
+int CellGrid::step(int cell, int dim, int dir, bool* wrapped) const {
+  auto cc = coords(cell);
+  cc[dim] += dir;
+  *wrapped = false;
+  if (cc[dim] < 0 || cc[dim] >= n_) {
+    if (!periodic_) return -1;
+    cc[dim] = wrap(cc[dim]);
+    *wrapped = true;
+  }
+  return index(cc[0], cc[1], cc[2]);
+}
+
+}  // namespace ringsim

@@ -1,0 +1,75 @@
+#pragma once
+// Uniform cell grid over the box, the neighbour structure of the event loop.
+//
+// Invariants: a body is listed in exactly one cell, the one containing its
+// centre at its reference time (up to rounding at a boundary just crossed);
+// the cell edge is at least the largest interaction range (sum of the two
+// largest bounding radii), so every possible contact partner of a body lies in
+// its own or one of the (up to) 26 adjacent cells. A body changing cell is an
+// event (neighbour refresh), so the cost of one prediction does not depend on N.
+// Lists are intrusive doubly linked (head per cell, next/prev per body): O(1)
+// insert and remove, no allocation in the event loop.
+
+#include <array>
+#include <vector>
+
+#include "core/params.hpp"
+#include "core/vec.hpp"
+
+namespace ringsim {
+
+class CellGrid {
+ public:
+  CellGrid() = default;
+  CellGrid(double box_length, double min_cell, int bodies, bool periodic);
+
+  int cells_per_side() const { return n_; }
+  double cell_width() const { return w_; }
+  int cell_of_body(int i) const { return cell_[i]; }
+  std::array<int, 3> coords(int cell) const { return {cell % n_, (cell / n_) % n_, cell / (n_ * n_)}; }
+  int index(int ix, int iy, int iz) const { return ix + n_ * (iy + n_ * iz); }
+
+  void insert(int body, const Vec3& x);
+  void move(int body, int new_cell);
+  // Cell containing x (clamped into the grid).
+  int locate(const Vec3& x) const;
+
+  // Time until the body at x (velocity v) leaves cell c, and where it goes:
+  // dim 0..2 and direction +1/-1. Infinity if v = 0.
+  struct Exit { double dt; int dim; int dir; };
+  Exit exit_time(int cell, const Vec3& x, const Vec3& v) const;
+  // Neighbour cell across face (dim, dir); -1 outside a non-periodic box.
+  // `wrapped` is set when the step crosses the periodic boundary.
+  int step(int cell, int dim, int dir, bool* wrapped) const;
+
+  // Calls f(j) for every body j in the cells adjacent to (and including) c.
+  template <class F>
+  void for_each_near(int c, F&& f) const {
+    const auto cc = coords(c);
+    for (int k = 0; k < nb_count_; ++k) {
+      const auto& o = offsets_[k];
+      int ix = cc[0] + o[0], iy = cc[1] + o[1], iz = cc[2] + o[2];
+      if (periodic_) {
+        ix = wrap(ix); iy = wrap(iy); iz = wrap(iz);
+      } else if (ix < 0 || iy < 0 || iz < 0 || ix >= n_ || iy >= n_ || iz >= n_) {
+        continue;
+      }
+      for (int j = head_[index(ix, iy, iz)]; j >= 0; j = next_[j]) f(j);
+    }
+  }
+
+ private:
+  int wrap(int i) const { return i < 0 ? i + n_ : (i >= n_ ? i - n_ : i); }
+  void unlink(int body);
+  void link(int body, int cell);
+
+  int n_ = 1;
+  double w_ = 0.0;
+  double box_ = 0.0;
+  bool periodic_ = false;
+  std::vector<int> head_, next_, prev_, cell_;
+  std::array<std::array<int, 3>, 27> offsets_{};
+  int nb_count_ = 0;
+};
+
+}  // namespace ringsim

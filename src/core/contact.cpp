@@ -1,0 +1,56 @@
+#include "core/contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ringsim {
+
+namespace {
+Mat3 cross_matrix(const Vec3& r) {
+  Mat3 m;
+  m << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;
+  return m;
+}
+Vec3 point_velocity(const ContactSide& s) { return s.v + s.omega.cross(s.arm); }
+}  // namespace
+
+double combine(CombineRule rule, double a, double b) {
+  switch (rule) {
+    case CombineRule::Min: return std::min(a, b);
+    case CombineRule::Max: return std::max(a, b);
+    case CombineRule::Product: return a * b;
+    case CombineRule::Mean: return 0.5 * (a + b);
+  }
+  return a;
+}
+
+ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law) {
+  const Vec3 u = point_velocity(b) - point_velocity(a);
+  const double un = n.dot(u);
+  const Mat3 ra = cross_matrix(a.arm), rb = cross_matrix(b.arm);
+  const Mat3 K = (a.inv_mass + b.inv_mass) * Mat3::Identity() - ra * a.inv_inertia * ra - rb * b.inv_inertia * rb;
+  const double e = law.restitution;
+
+  const Vec3 ut = u - un * n;
+  const bool frictional = law.static_friction > 0.0 || law.dynamic_friction > 0.0;
+  if (frictional && ut.squaredNorm() > 0.0) {
+    // Sticking: the impulse that leaves u' = -e un n.
+    const Vec3 target = -e * un * n;
+    const Vec3 J = K.fullPivLu().solve(target - u);
+    const double jn = J.dot(n);
+    const double jt = (J - jn * n).norm();
+    if (jn > 0.0 && jt <= law.static_friction * jn) return {J, ContactMode::Stick};
+    // Sliding: tangential impulse opposes the incoming tangential velocity.
+    const Vec3 dir = n - law.dynamic_friction * ut.normalized();
+    const double denom = n.dot(K * dir);
+    if (denom > 0.0) {
+      const double j = -(1.0 + e) * un / denom;
+      return {j * dir, ContactMode::Slide};
+    }
+    // denom <= 0 (the Painleve-like configurations): fall through to smooth.
+  }
+  const double j = -(1.0 + e) * un / n.dot(K * n);
+  return {j * n, ContactMode::Smooth};
+}
+
+}  // namespace ringsim

@@ -1,0 +1,48 @@
+#pragma once
+// Impulsive hard contacts between two rigid bodies (or a body and a wall).
+//
+// Conventions: the normal n points from body A to body B; J is the impulse on
+// B (A receives -J). The relative velocity at the contact point is
+// u = (v_B + w_B x r_B) - (v_A + w_A x r_A), approaching when n.u < 0, and an
+// impulse J changes it by K J with the collision matrix
+//   K = (1/m_A + 1/m_B) 1 - [r_A]x I_A^-1 [r_A]x - [r_B]x I_B^-1 [r_B]x
+// (Mirtich, "Impulse-based dynamic simulation", 1996, ch. 4).
+//
+// Normal law: Newton restitution, n.u' = -e n.u.
+// Tangential law (impulsive Coulomb): the impulse that makes the tangential
+// velocity vanish is used when it lies inside the static friction cone
+// |J_t| <= mu_s J_n ("sticking"); otherwise the body slides and the tangential
+// impulse is nu * J_n against the incoming tangential velocity.
+// Friction 0 gives smooth contacts (J along n).
+
+#include "core/params.hpp"
+#include "core/vec.hpp"
+
+namespace ringsim {
+
+struct ContactSide {
+  double inv_mass;   // 0 for a wall
+  Mat3 inv_inertia;  // world frame; zero for a wall or where spin is irrelevant
+  Vec3 arm;          // contact point - centre of mass
+  Vec3 v;            // centre velocity
+  Vec3 omega;        // angular velocity
+};
+
+struct ContactLaw {
+  double restitution;
+  double static_friction;
+  double dynamic_friction;
+};
+
+enum class ContactMode { Smooth, Stick, Slide };
+
+struct ContactResult {
+  Vec3 impulse;      // on B
+  ContactMode mode;
+};
+
+ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law);
+
+double combine(CombineRule rule, double a, double b);
+
+}  // namespace ringsim

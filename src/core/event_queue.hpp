@@ -1,0 +1,59 @@
+#pragma once
+// Priority queues over bodies. Each body owns exactly one pending event (its
+// earliest predicted one); the queue orders bodies by (event time, body id).
+// The id breaks ties, so every implementation yields the same sequence.
+// Stale events are not removed: an event records its partner's impulse
+// counter and is discarded when popped if the partner has moved on (lazy
+// invalidation, as in DynamO and Smallenburg's EDMD).
+//
+// Implementations (a coarse plug-in, hence the virtual interface):
+//  - TournamentQueue: a complete binary tournament tree over the bodies;
+//    update is O(log N) with one comparison per level, no allocation.
+//  - ReferenceQueue: a linear scan; slow and obviously correct, for tests.
+
+#include <memory>
+#include <vector>
+
+#include "core/params.hpp"
+
+namespace ringsim {
+
+class EventQueue {
+ public:
+  virtual ~EventQueue() = default;
+  virtual void reset(int bodies) = 0;
+  virtual void update(int body, double time) = 0;
+  virtual int top() const = 0;  // body with the earliest event
+  virtual double time(int body) const = 0;
+};
+
+class TournamentQueue final : public EventQueue {
+ public:
+  void reset(int bodies) override;
+  void update(int body, double time) override;
+  int top() const override { return tree_[1]; }
+  double time(int body) const override { return times_[body]; }
+
+ private:
+  bool earlier(int a, int b) const {
+    return times_[a] < times_[b] || (times_[a] == times_[b] && a < b);
+  }
+  int leaves_ = 1;
+  std::vector<double> times_;  // size leaves_, padding = +inf
+  std::vector<int> tree_;      // size 2 * leaves_; node k holds the winner of its subtree
+};
+
+class ReferenceQueue final : public EventQueue {
+ public:
+  void reset(int bodies) override;
+  void update(int body, double time) override { times_[body] = time; }
+  int top() const override;
+  double time(int body) const override { return times_[body]; }
+
+ private:
+  std::vector<double> times_;
+};
+
+std::unique_ptr<EventQueue> make_queue(QueueKind kind);
+
+}  // namespace ringsim

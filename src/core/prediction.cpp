@@ -1,0 +1,208 @@
+#include "core/prediction.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/motion.hpp"
+
+namespace ringsim {
+
+namespace {
+
+// Interval [enter, leave] (relative times >= 0) during which |dx + dv s| <= R.
+// Returns false when the distance never falls to R.
+bool sphere_window(const Vec3& dx, const Vec3& dv, double R, double* enter, double* leave) {
+  const double a = dv.squaredNorm();
+  const double b = dx.dot(dv);
+  const double c = dx.squaredNorm() - R * R;
+  if (a == 0.0) {
+    if (c > 0.0) return false;
+    *enter = 0.0;
+    *leave = kNever;
+    return true;
+  }
+  const double disc = b * b - a * c;
+  if (disc < 0.0) return false;
+  const double root = std::sqrt(disc);
+  const double s_leave = (-b + root) / a;
+  if (s_leave < 0.0) return false;
+  // Stable form of the smaller root (avoids cancellation when b < 0).
+  *enter = c <= 0.0 ? 0.0 : (b < 0.0 ? c / (-b + root) : kNever);
+  if (*enter == kNever) return false;
+  *leave = s_leave;
+  return true;
+}
+
+Vec3 support_point_of(const Kinematics& k, const Species& s, double t, const Vec3& n) {
+  const Vec3 c = position_at(k, t);
+  if (s.shape == Shape::Sphere) return c + s.radius * n;
+  const Vec3 u = axis_at(k, t);
+  const double un = u.dot(n);
+  Vec3 p = c + (un >= 0.0 ? s.half_length : -s.half_length) * u;
+  const Vec3 radial = n - un * u;
+  const double rn = radial.norm();
+  if (rn > 1e-12) p += s.radius * radial / rn;
+  return p;
+}
+
+// Velocity of the shape's surface at world point p (precession moves the
+// shape; spin about the axis does not).
+Vec3 surface_velocity(const Kinematics& k, double t, const Vec3& p, const Vec3& center) {
+  return k.v + k.precession.cross(p - center);
+}
+
+}  // namespace
+
+double Predictor::sphere_sphere(int i, int j, double t, double limit) const {
+  const Kinematics &ki = b_.kin[i], &kj = b_.kin[j];
+  const Vec3 dx = box_.min_image(position_at(kj, t) - position_at(ki, t));
+  const Vec3 dv = kj.v - ki.v;
+  const double b = dx.dot(dv);
+  if (b >= 0.0) return kNever;  // not approaching
+  const double sigma = b_.sp(i).radius + b_.sp(j).radius;
+  const double c = dx.squaredNorm() - sigma * sigma;
+  if (c <= 0.0) return t;       // touching (rounding) and approaching
+  const double a = dv.squaredNorm();
+  const double disc = b * b - a * c;
+  if (disc < 0.0) return kNever;
+  const double dt = c / (-b + std::sqrt(disc));
+  return t + dt < limit ? t + dt : kNever;
+}
+
+double Predictor::pair(int i, int j, double t, double limit) {
+  if (b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) return sphere_sphere(i, j, t, limit);
+  return advance_pair(i, j, t, limit);
+}
+
+ContactGeometry Predictor::contact_geometry(int i, int j, double t) const {
+  const Kinematics &ki = b_.kin[i], &kj = b_.kin[j];
+  const Species &si = b_.sp(i), &sj = b_.sp(j);
+  ContactGeometry g;
+  g.center_a = position_at(ki, t);
+  g.center_b = g.center_a + box_.min_image(position_at(kj, t) - g.center_a);
+  const Shape a = si.shape, b = sj.shape;
+  if (a == Shape::Sphere && b == Shape::Sphere) {
+    const Vec3 d = g.center_b - g.center_a;
+    const double r = d.norm();
+    g.sep.normal = d / r;
+    g.sep.distance = r - si.radius - sj.radius;
+    g.sep.point_a = g.center_a + si.radius * g.sep.normal;
+    g.sep.point_b = g.center_b - sj.radius * g.sep.normal;
+  } else if (a == Shape::Sphere) {
+    g.sep = geom::sphere_cylinder(g.center_a, si.radius, geom::Cylinder{g.center_b, axis_at(kj, t), sj.radius, sj.half_length});
+  } else if (b == Shape::Sphere) {
+    geom::Separation s = geom::sphere_cylinder(g.center_b, sj.radius, geom::Cylinder{g.center_a, axis_at(ki, t), si.radius, si.half_length});
+    g.sep = geom::Separation{s.distance, s.point_b, s.point_a, -s.normal};
+  } else {
+    g.sep = geom::cylinder_cylinder(geom::Cylinder{g.center_a, axis_at(ki, t), si.radius, si.half_length},
+                                    geom::Cylinder{g.center_b, axis_at(kj, t), sj.radius, sj.half_length});
+  }
+  return g;
+}
+
+double Predictor::approach_rate(int i, int j, double t, const ContactGeometry& g) const {
+  const Vec3 ua = surface_velocity(b_.kin[i], t, g.sep.point_a, g.center_a);
+  const Vec3 ub = surface_velocity(b_.kin[j], t, g.sep.point_b, g.center_b);
+  return g.sep.normal.dot(ub - ua);
+}
+
+double Predictor::advance_pair(int i, int j, double t, double limit) {
+  const Kinematics &ki = b_.kin[i], &kj = b_.kin[j];
+  const Species &si = b_.sp(i), &sj = b_.sp(j);
+  const Vec3 dx = box_.min_image(position_at(kj, t) - position_at(ki, t));
+  const Vec3 dv = kj.v - ki.v;
+  double enter, leave;
+  if (!sphere_window(dx, dv, si.bounding_radius + sj.bounding_radius + delta_, &enter, &leave)) return kNever;
+  double s = t + enter;
+  const double end = std::min(limit, t + leave);
+  const double bound = dv.norm() + shape_rotation_speed(ki, si) + shape_rotation_speed(kj, sj);
+  for (int step = 0; step < kMaxSteps; ++step) {
+    if (s >= end) return kNever;
+    ++ca_iterations_;
+    const ContactGeometry g = contact_geometry(i, j, s);
+    const double d = g.sep.distance;
+    double h;
+    if (d <= delta_) {
+      if (approach_rate(i, j, s, g) < 0.0) return s;
+      // Touching but separating: creep on without letting the gap close.
+      h = std::max(d, 1e-3 * delta_) / (2.0 * bound);
+    } else {
+      h = (d - 0.5 * delta_) / bound;
+    }
+    if (bound == 0.0) return kNever;  // rigidly fixed relative pose: gap never changes
+    s += std::max(h, 1e-15 * std::max(1.0, std::abs(s)));
+  }
+  failed_ = true;
+  return kNever;
+}
+
+Vec3 Predictor::support_point(int i, double t, const Vec3& n) const {
+  return support_point_of(b_.kin[i], b_.sp(i), t, n);
+}
+
+WallHit Predictor::wall(int i, double t, double limit) {
+  const Kinematics& k = b_.kin[i];
+  const Species& s = b_.sp(i);
+  const double L = box_.length;
+  const Vec3 x = position_at(k, t);
+  WallHit best;
+  best.time = limit;
+  if (s.shape == Shape::Sphere) {
+    for (int d = 0; d < 3; ++d) {
+      double dt = kNever;
+      if (k.v[d] > 0.0) dt = (L - s.radius - x[d]) / k.v[d];
+      else if (k.v[d] < 0.0) dt = (s.radius - x[d]) / k.v[d];
+      dt = std::max(dt, 0.0);
+      if (t + dt < best.time) best = {t + dt, d, k.v[d] > 0.0 ? +1 : -1};
+    }
+  } else {
+    const double R = s.bounding_radius;
+    const double rot = shape_rotation_speed(k, s);
+    for (int d = 0; d < 3; ++d) {
+      for (int dir : {-1, +1}) {
+        // Distance from the centre to this wall, and its rate of change.
+        const double gap_c = dir > 0 ? L - x[d] : x[d];
+        const double rate_c = dir > 0 ? -k.v[d] : k.v[d];
+        // The centre's distance to the wall is linear in time; the solid can
+        // touch the wall only while it is within R (+ delta): one window.
+        const double reach = R + delta_;
+        double s0, end = best.time;
+        if (rate_c < 0.0) {
+          s0 = t + std::max(0.0, gap_c - reach) / -rate_c;
+        } else if (gap_c <= reach) {
+          s0 = t;
+          if (rate_c > 0.0) end = std::min(end, t + (reach - gap_c) / rate_c);
+        } else {
+          continue;
+        }
+        const double bound = std::abs(k.v[d]) + rot;
+        Vec3 n = Vec3::Zero();
+        n[d] = dir;
+        double sc = s0;
+        for (int step = 0; step < kMaxSteps && sc < end; ++step) {
+          ++ca_iterations_;
+          const Vec3 p = support_point_of(k, s, sc, n);
+          const double g = dir > 0 ? L - p[d] : p[d];
+          double h;
+          if (g <= delta_) {
+            const Vec3 up = surface_velocity(k, sc, p, position_at(k, sc));
+            if (dir * up[d] > 0.0) {
+              best = {sc, d, dir};
+              break;
+            }
+            h = std::max(g, 1e-3 * delta_) / (2.0 * bound);
+          } else {
+            h = (g - 0.5 * delta_) / bound;
+          }
+          if (bound == 0.0) break;
+          sc += std::max(h, 1e-15 * std::max(1.0, std::abs(sc)));
+          if (step + 1 == kMaxSteps) failed_ = true;
+        }
+      }
+    }
+  }
+  if (best.time >= limit) best.time = kNever;
+  return best;
+}
+
+}  // namespace ringsim

@@ -1,0 +1,128 @@
+#include "core/validation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+#include <vector>
+
+#include "core/geometry.hpp"
+#include "core/motion.hpp"
+#include "core/simulation.hpp"
+
+namespace ringsim {
+
+Validator::Validator(const Simulation& sim, double slack) : slack_(slack) {
+  const ContactParams& c = sim.params().contact;
+  const bool frictionless = c.static_friction_sphere == 0 && c.static_friction_linker == 0 && c.static_friction_wall == 0 &&
+                            c.dynamic_friction_sphere == 0 && c.dynamic_friction_linker == 0 && c.dynamic_friction_wall == 0;
+  const bool walls_elastic = sim.box().periodic || c.restitution_wall == 1.0;
+  elastic_ = frictionless && walls_elastic && c.restitution_sphere == 1.0 && c.restitution_linker == 1.0;
+  initial_ = totals(sim, sim.time());
+}
+
+Validator::Totals Validator::totals(const Simulation& sim, double t) {
+  const BodyStore& b = sim.bodies();
+  Totals r{Vec3::Zero(), Vec3::Zero(), 0.0, 0.0, 0.0};
+  for (int i = 0; i < b.size(); ++i) {
+    Kinematics k = b.kin[i];
+    advance(k, t);
+    const Species& s = b.sp(i);
+    const Vec3 p = s.mass * k.v;
+    const Vec3 spin_l = angular_momentum(k, s);
+    r.momentum += p;
+    r.angular_momentum += k.x.cross(p) + spin_l;
+    r.energy += translational_energy(k, s) + rotational_energy(k, s);
+    r.p_scale += p.norm();
+    r.l_scale += k.x.norm() * p.norm() + spin_l.norm();
+  }
+  return r;
+}
+
+std::int64_t Validator::count_overlaps(const Simulation& sim, double t, double slack) {
+  const BodyStore& b = sim.bodies();
+  const Box& box = sim.box();
+  const int n = b.size();
+  double rmax = 0.0;
+  std::vector<Vec3> x(n), u(n);
+  for (int i = 0; i < n; ++i) {
+    x[i] = position_at(b.kin[i], t);
+    if (box.periodic)
+      for (int d = 0; d < 3; ++d) x[i][d] -= box.length * std::floor(x[i][d] / box.length);
+    u[i] = axis_at(b.kin[i], t);
+    rmax = std::max(rmax, b.sp(i).bounding_radius);
+  }
+  // Fresh spatial hash with cells of the interaction range.
+  const double w = 2.0 * rmax;
+  int m = std::max(1, static_cast<int>(box.length / w));
+  if (m < 3) m = 1;  // one cell: all pairs, and no periodic neighbour is seen twice
+  const int reach_cells = m >= 3 ? 1 : 0;
+  auto key = [&](int a, int c, int d) { return (static_cast<long long>(a) * m + c) * m + d; };
+  std::unordered_map<long long, std::vector<int>> cells;
+  auto coord = [&](double v) { return std::clamp(static_cast<int>(std::floor(v / box.length * m)), 0, m - 1); };
+  for (int i = 0; i < n; ++i) cells[key(coord(x[i][0]), coord(x[i][1]), coord(x[i][2]))].push_back(i);
+  std::int64_t overlaps = 0;
+  for (int i = 0; i < n; ++i) {
+    const int cx = coord(x[i][0]), cy = coord(x[i][1]), cz = coord(x[i][2]);
+    for (int dx = -reach_cells; dx <= reach_cells; ++dx)
+      for (int dy = -reach_cells; dy <= reach_cells; ++dy)
+        for (int dz = -reach_cells; dz <= reach_cells; ++dz) {
+          int a = cx + dx, c = cy + dy, d = cz + dz;
+          if (box.periodic) {
+            a = (a + m) % m; c = (c + m) % m; d = (d + m) % m;
+          } else if (a < 0 || c < 0 || d < 0 || a >= m || c >= m || d >= m) {
+            continue;
+          }
+          auto it = cells.find(key(a, c, d));
+          if (it == cells.end()) continue;
+          for (int j : it->second) {
+            if (j <= i) continue;
+            const Species &si = b.sp(i), &sj = b.sp(j);
+            const Vec3 xj = x[i] + box.min_image(x[j] - x[i]);
+            const double reach = si.bounding_radius + sj.bounding_radius;
+            if ((xj - x[i]).squaredNorm() >= reach * reach) continue;
+            bool hit;
+            if (si.shape == Shape::Sphere && sj.shape == Shape::Sphere) {
+              hit = (xj - x[i]).norm() < si.radius + sj.radius - 2.0 * slack;
+            } else if (si.shape == Shape::Sphere) {
+              hit = geom::fcl_sphere_cylinder_overlap(x[i], si.radius, {xj, u[j], sj.radius, sj.half_length}, slack);
+            } else if (sj.shape == Shape::Sphere) {
+              hit = geom::fcl_sphere_cylinder_overlap(xj, sj.radius, {x[i], u[i], si.radius, si.half_length}, slack);
+            } else {
+              hit = geom::fcl_cylinders_overlap({x[i], u[i], si.radius, si.half_length}, {xj, u[j], sj.radius, sj.half_length}, slack);
+            }
+            overlaps += hit;
+          }
+        }
+  }
+  // Walls (reflective): the solid must stay inside the box.
+  if (!box.periodic) {
+    for (int i = 0; i < n; ++i) {
+      const Species& s = b.sp(i);
+      for (int d = 0; d < 3; ++d) {
+        Vec3 e = Vec3::Zero();
+        e[d] = 1.0;
+        const double ext = s.shape == Shape::Sphere ? s.radius : geom::cylinder_support({x[i], u[i], s.radius, s.half_length}, e);
+        if (x[i][d] - ext < -slack || x[i][d] + ext > box.length + slack) ++overlaps;
+      }
+    }
+  }
+  return overlaps;
+}
+
+void Validator::check(const Simulation& sim, double t) {
+  ++report_.checks;
+  const std::int64_t ov = count_overlaps(sim, t, slack_);
+  if (ov > 0 && report_.overlaps == 0) report_.first_overlap_time = t;
+  report_.overlaps += ov;
+  const Totals now = totals(sim, t);
+  const Vec3 dp = now.momentum - initial_.momentum - sim.external_impulse();
+  report_.max_momentum_error = std::max(report_.max_momentum_error, dp.norm() / std::max(initial_.p_scale, 1e-300));
+  if (!sim.box().periodic) {
+    const Vec3 dl = now.angular_momentum - initial_.angular_momentum - sim.external_angular_impulse();
+    report_.max_angular_momentum_error = std::max(report_.max_angular_momentum_error, dl.norm() / std::max(initial_.l_scale, 1e-300));
+  }
+  const double de = (now.energy - initial_.energy) / std::max(initial_.energy, 1e-300);
+  report_.max_energy_error = std::max(report_.max_energy_error, elastic_ ? std::abs(de) : std::max(0.0, de));
+}
+
+}  // namespace ringsim

@@ -1,0 +1,52 @@
+#pragma once
+// Validation mode: whole-state invariant checks after every event (DynamO's
+// checkSystem, Box2D's B2_VALIDATE). Independent of the simulator's own
+// machinery: overlaps are found with a fresh spatial hash and FCL's collision
+// test (not the simulator's distance code), and conservation is checked
+// against the totals at t = 0 plus the impulses the walls delivered.
+//
+// Reported quantities (relative):
+//  - overlaps: pairs whose solids, each shrunk by `slack`, intersect;
+//  - momentum: |P - P0 - J_walls| / sum_i m_i |v_i|(0);
+//  - angular momentum (reflective boxes only; periodic images break it):
+//    |L - L0 - M_walls| / sum_i (|x_i| m_i |v_i| + |L_i|)(0), about the origin;
+//  - energy (only meaningful when every restitution is 1 and contacts are
+//    smooth): |E - E0| / E0; otherwise the largest relative *increase*.
+
+#include <cstdint>
+
+#include "core/vec.hpp"
+
+namespace ringsim {
+
+class Simulation;
+
+struct ValidationReport {
+  std::int64_t checks = 0;
+  std::int64_t overlaps = 0;          // summed over checks
+  double max_momentum_error = 0.0;
+  double max_angular_momentum_error = 0.0;
+  double max_energy_error = 0.0;      // elastic: |dE|/E0; inelastic: max(0, dE)/E0
+  double first_overlap_time = -1.0;
+};
+
+class Validator {
+ public:
+  Validator(const Simulation& sim, double slack = 1e-9);
+  void check(const Simulation& sim, double t);
+  const ValidationReport& report() const { return report_; }
+  bool energy_conserving() const { return elastic_; }
+
+  // Totals of the current state at time t (bodies advanced on copies).
+  struct Totals { Vec3 momentum; Vec3 angular_momentum; double energy; double p_scale; double l_scale; };
+  static Totals totals(const Simulation& sim, double t);
+  static std::int64_t count_overlaps(const Simulation& sim, double t, double slack);
+
+ private:
+  double slack_;
+  bool elastic_;
+  Totals initial_;
+  ValidationReport report_;
+};
+
+}  // namespace ringsim

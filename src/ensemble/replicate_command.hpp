@@ -1,0 +1,36 @@
+#pragma once
+// `ringsim replicate [SCENARIO.toml] --seed S [--set SECTION.KEY=VALUE]... [--json]`
+// Runs one replicate and prints its statistics (a table, or one JSON object).
+
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/params.hpp"
+
+namespace CLI {
+class App;
+}
+
+namespace ringsim {
+
+struct ReplicateOptions {
+  std::string scenario;               // empty: built-in defaults
+  std::uint64_t seed = 1;
+  std::uint64_t replicate = 0;        // replicate index within an ensemble
+  std::vector<std::string> overrides;
+  bool json = false;
+  bool validate = false;              // same as --set run.validate=true
+};
+
+// Runs one replicate with the given settings and returns the result object
+// (the `--json` output). Throws ConfigError / SceneError on bad input.
+nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::uint64_t replicate);
+
+void add_replicate_command(CLI::App& app, ReplicateOptions& opt);
+int replicate_main(const ReplicateOptions& opt, std::ostream& out);
+
+}  // namespace ringsim

@@ -1,0 +1,257 @@
+// Whole-replicate behaviour: queue equivalence, validation-mode runs,
+// inelastic collapse, scene set-up and the command line.
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "core/event_queue.hpp"
+#include "core/motion.hpp"
+#include "core/rng.hpp"
+#include "core/scene.hpp"
+#include "core/simulation.hpp"
+#include "core/validation.hpp"
+#include "ensemble/config.hpp"
+
+namespace ringsim {
+namespace {
+
+TEST(EventQueue, TournamentMatchesReferenceUnderRandomUpdates) {
+  TournamentQueue fast;
+  ReferenceQueue ref;
+  const int n = 37;
+  fast.reset(n);
+  ref.reset(n);
+  Rng rng(3, 0, Stream::Placement);
+  for (int k = 0; k < 20000; ++k) {
+    const int i = static_cast<int>(rng.below(n));
+    // Coarse times so that ties happen often.
+    const double t = std::floor(rng.uniform() * 50.0);
+    fast.update(i, t);
+    ref.update(i, t);
+    ASSERT_EQ(fast.top(), ref.top()) << "after update " << k;
+  }
+}
+
+std::vector<Simulation::LoggedEvent> event_log(SimParams p, std::uint64_t seed) {
+  Simulation sim(p, build_scene(p, seed, 0, nullptr));
+  sim.enable_log(true);
+  sim.run();
+  return sim.log();
+}
+
+TEST(EventQueue, FastAndReferenceQueuesGiveIdenticalEventSequence) {
+  SimParams p;  // default scene, 300 + 300 bodies
+  p.run.t_max = 4.0;
+  p.run.queue = QueueKind::Fast;
+  const auto a = event_log(p, 11);
+  p.run.queue = QueueKind::Reference;
+  const auto b = event_log(p, 11);
+  ASSERT_GT(a.size(), 1000u);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    ASSERT_EQ(a[k].time, b[k].time) << k;  // bit-identical
+    ASSERT_EQ(a[k].type, b[k].type) << k;
+    ASSERT_EQ(a[k].a, b[k].a) << k;
+    ASSERT_EQ(a[k].b, b[k].b) << k;
+  }
+}
+
+TEST(Validation, DefaultBoxHundredThousandEventsNoOverlapElastic) {
+  SimParams p;  // 300 spheres + 300 linkers, 50 box, reflective, e = 1, smooth
+  p.run.t_max = 1e9;
+  p.run.max_events = 100000;
+  Simulation sim(p, build_scene(p, 5, 0, nullptr));
+  Validator v(sim);
+  sim.set_validator(&v);
+  EXPECT_EQ(sim.run(), Termination::EventBudget);
+  const ValidationReport& r = v.report();
+  EXPECT_EQ(r.checks, 100000);
+  EXPECT_EQ(r.overlaps, 0) << "first overlap at t = " << r.first_overlap_time;
+  EXPECT_TRUE(v.energy_conserving());
+  EXPECT_LT(r.max_energy_error, 1e-9);
+  EXPECT_LT(r.max_momentum_error, 1e-12);
+  EXPECT_LT(r.max_angular_momentum_error, 1e-12);
+  EXPECT_GT(sim.stats().collisions, 10000);
+}
+
+TEST(Validation, PeriodicFrictionalInelasticRunKeepsMomentumAndNoOverlap) {
+  SimParams p;
+  p.geometry.boundary = Boundary::Periodic;
+  p.contact.restitution_sphere = 0.8;
+  p.contact.restitution_linker = 0.9;
+  p.contact.static_friction_sphere = p.contact.static_friction_linker = 0.4;
+  p.contact.dynamic_friction_sphere = p.contact.dynamic_friction_linker = 0.3;
+  p.init.spheres = 150;
+  p.init.linkers = 150;
+  p.geometry.box_length = 35.0;
+  p.run.t_max = 1e9;
+  p.run.max_events = 20000;
+  Simulation sim(p, build_scene(p, 9, 0, nullptr));
+  Validator v(sim);
+  sim.set_validator(&v);
+  sim.run();
+  EXPECT_EQ(v.report().overlaps, 0);
+  EXPECT_LT(v.report().max_momentum_error, 1e-12);
+  EXPECT_FALSE(v.energy_conserving());
+  EXPECT_LT(v.report().max_energy_error, 1e-12);  // energy never increases
+  EXPECT_GT(sim.stats().stick + sim.stats().slide, 100);
+}
+
+TEST(InelasticCollapse, DenseGasWithRestitutionPointThreeFinishes) {
+  // Packing ~0.35, e = 0.3: without a remedy the cooling gas clusters and
+  // collapses (infinitely many collisions in finite time). The TC model keeps
+  // the collision count finite; the guard below is a generous budget.
+  SimParams p;
+  p.geometry.boundary = Boundary::Periodic;
+  p.init.linkers = 0;
+  p.init.spheres = 2000;
+  p.geometry.box_length = std::cbrt(2000 * 4.0 / 3.0 * M_PI / 0.35);
+  p.contact.restitution_sphere = 0.3;
+  p.run.t_max = 200.0;
+  p.run.max_events = 20'000'000;
+  Simulation sim(p, build_scene(p, 2, 0, nullptr));
+  EXPECT_EQ(sim.run(), Termination::TimeLimit);
+  EXPECT_GT(sim.stats().tc_collisions, 0);
+  EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
+}
+
+TEST(InelasticCollapse, WithoutTcModelTheEventRateExplodes) {
+  // The same gas without the TC model spends its whole event budget in a
+  // short time: the collapse the remedy is for.
+  SimParams p;
+  p.geometry.boundary = Boundary::Periodic;
+  p.init.linkers = 0;
+  p.init.spheres = 2000;
+  p.geometry.box_length = std::cbrt(2000 * 4.0 / 3.0 * M_PI / 0.35);
+  p.contact.restitution_sphere = 0.3;
+  p.run.tc_time = 0.0;
+  p.run.t_max = 200.0;
+  p.run.max_events = 2'000'000;
+  Simulation sim(p, build_scene(p, 2, 0, nullptr));
+  EXPECT_EQ(sim.run(), Termination::EventBudget);
+  EXPECT_LT(sim.time(), 200.0);
+}
+
+TEST(Scene, SegregatedAndMixedRouting) {
+  SimParams p;
+  p.init.alpha = 0.0;
+  SceneReport rep;
+  BodyStore b = build_scene(p, 4, 0, &rep);
+  const double half = 0.5 * p.geometry.box_length;
+  for (int i = 0; i < b.size(); ++i) {
+    if (b.shape[i] == Shape::Sphere) EXPECT_LT(b.kin[i].x.x(), half);
+    else EXPECT_GE(b.kin[i].x.x(), half);
+  }
+  EXPECT_LT(rep.mixing, 0.1);
+  p.init.alpha = 1.0;
+  build_scene(p, 4, 0, &rep);
+  EXPECT_GT(rep.mixing, 0.35);  // random mixture of equal numbers: about 1/2
+  EXPECT_LT(rep.mixing, 0.65);
+  const double expected = (300 * 4.0 / 3.0 * M_PI + 300 * 4.0 * M_PI) / std::pow(50.0, 3);
+  EXPECT_NEAR(rep.packing_fraction, expected, 1e-12);
+}
+
+TEST(Scene, NoInitialOverlapsAndDenseRequestUsesFallback) {
+  SimParams p;
+  p.init.spheres = 2500;
+  p.init.linkers = 1500;
+  p.geometry.box_length = 50.0;  // packing ~0.24
+  SceneReport rep;
+  BodyStore b = build_scene(p, 8, 0, &rep);
+  Simulation sim(p, std::move(b));
+  EXPECT_EQ(Validator::count_overlaps(sim, 0.0, 0.0), 0);
+  EXPECT_NEAR(rep.packing_fraction, (2500 * 4.0 / 3.0 * M_PI + 1500 * 4.0 * M_PI) / 125000.0, 1e-12);
+}
+
+TEST(Scene, ImpossibleRequestFailsFastNamingPackingFraction) {
+  SimParams p;
+  p.init.linkers = 20000;
+  try {
+    build_scene(p, 1, 0, nullptr);
+    FAIL() << "expected SceneError";
+  } catch (const SceneError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("packing fraction"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("20000 linkers"), std::string::npos) << msg;
+  }
+}
+
+TEST(Scene, ThermalVelocitiesHaveTheTemperature) {
+  SimParams p;
+  p.init.velocity = VelocityInit::Thermal;
+  p.init.temperature = 2.0;
+  p.init.spheres = 3000;
+  p.init.linkers = 3000;
+  p.geometry.box_length = 80.0;
+  BodyStore b = build_scene(p, 12, 0, nullptr);
+  double et = 0.0, er = 0.0;
+  for (int i = 0; i < b.size(); ++i) {
+    et += translational_energy(b.kin[i], b.sp(i));
+    er += rotational_energy(b.kin[i], b.sp(i));
+  }
+  // Equipartition: 3/2 T per body for translation and for rotation.
+  const double n = b.size();
+  EXPECT_NEAR(et / (1.5 * n), 2.0, 2.0 * 0.04);  // 4 %: ~5 sigma for 6000 bodies
+  EXPECT_NEAR(er / (1.5 * n), 2.0, 2.0 * 0.04);
+}
+
+TEST(Scene, SameSeedSameScene) {
+  SimParams p;
+  BodyStore a = build_scene(p, 21, 3, nullptr), b = build_scene(p, 21, 3, nullptr), c = build_scene(p, 21, 4, nullptr);
+  EXPECT_EQ(a.kin[17].x, b.kin[17].x);
+  EXPECT_EQ(a.kin[400].precession, b.kin[400].precession);
+  EXPECT_NE(a.kin[17].x, c.kin[17].x);
+}
+
+// ---- command line ----------------------------------------------------------
+struct Cmd {
+  int status;
+  std::string out;
+};
+Cmd run_cli(const std::string& args) {
+  const std::string cmd = std::string(RINGSIM_BINARY) + " " + args + " 2>&1";
+  Cmd r{0, ""};
+  FILE* f = popen(cmd.c_str(), "r");
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), buf.size(), f)) r.out += buf.data();
+  const int st = pclose(f);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+TEST(Cli, ReplicateJsonHasTheContractFields) {
+  const Cmd c = run_cli("replicate --seed 3 --set run.t_max=2 --json");
+  ASSERT_EQ(c.status, 0) << c.out;
+  for (const char* key : {"\"seed\":3", "\"events\":", "\"collisions\":", "\"wall_collisions\":", "\"t_end\":2.0",
+                          "\"termination\":\"t_max\"", "\"wall_seconds\":", "\"translational\":", "\"rotational\":",
+                          "\"momentum\":["})
+    EXPECT_NE(c.out.find(key), std::string::npos) << key << " missing in " << c.out;
+}
+
+TEST(Cli, BadInputIsRejectedNamingKeyValueAndRange) {
+  Cmd c = run_cli("replicate --seed 1 --set contact.restitution_sphere=1.5");
+  EXPECT_EQ(c.status, 1);
+  EXPECT_NE(c.out.find("contact.restitution_sphere"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("1.5"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("[0, 1]"), std::string::npos) << c.out;
+  c = run_cli("replicate --seed 1 --set bonding.enabled=true");
+  EXPECT_EQ(c.status, 1);
+  EXPECT_NE(c.out.find("bonding.enabled"), std::string::npos) << c.out;
+  c = run_cli("replicate --seed 1 --set geometry.box_lenght=30");
+  EXPECT_EQ(c.status, 1);
+  EXPECT_NE(c.out.find("did you mean"), std::string::npos) << c.out;
+  c = run_cli("replicate --seed 1 --set init.linkers=20000");
+  EXPECT_EQ(c.status, 2);
+  EXPECT_NE(c.out.find("packing fraction"), std::string::npos) << c.out;
+  c = run_cli("replicate");  // --seed is required
+  EXPECT_NE(c.status, 0);
+  EXPECT_NE(c.out.find("--seed"), std::string::npos) << c.out;
+}
+
+}  // namespace
+}  // namespace ringsim
