@@ -1,0 +1,100 @@
+// Narrow-phase timings over the reference poses of
+// ../shared/testdata/cylinder_distance.json (cylinders near contact, random,
+// parallel, perpendicular, coaxial and cap-to-side). Each iteration is one
+// query; the pose cycles through the set.
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/geometry.hpp"
+
+#ifndef RINGSIM_TESTDATA_DIR
+#define RINGSIM_TESTDATA_DIR "../shared/testdata"
+#endif
+
+namespace {
+
+using ringsim::Vec3;
+using namespace ringsim::geom;
+
+// The reference file: RINGSIM_TESTDATA_DIR (compile definition or environment
+// variable), else ../shared/testdata next to the repository this file is in
+// (via __FILE__, so it works from any build directory), else relative to cwd.
+std::ifstream open_testdata() {
+  std::vector<std::string> dirs = {RINGSIM_TESTDATA_DIR};
+  if (const char* env = std::getenv("RINGSIM_TESTDATA_DIR")) dirs.insert(dirs.begin(), env);
+  const std::string src = __FILE__;
+  const auto slash = src.rfind('/');
+  if (slash != std::string::npos) dirs.push_back(src.substr(0, slash) + "/../../shared/testdata");
+  for (const std::string& d : dirs) {
+    std::ifstream in(d + "/cylinder_distance.json");
+    if (in) return in;
+  }
+  return std::ifstream();
+}
+
+struct Pose {
+  Cylinder a, b;
+};
+
+const std::vector<Pose>& poses() {
+  static const std::vector<Pose> out = [] {
+    std::vector<Pose> v;
+    std::ifstream in = open_testdata();
+    if (!in.is_open()) return v;
+    const nlohmann::json j = nlohmann::json::parse(in);
+    const double r = j.at("radius"), h = 0.5 * j.at("length").get<double>();
+    auto vec = [](const nlohmann::json& x) { return Vec3(x[0], x[1], x[2]); };
+    for (const auto& c : j.at("cases"))
+      v.push_back({{vec(c.at("center_a")), vec(c.at("axis_a")).normalized(), r, h},
+                   {vec(c.at("center_b")), vec(c.at("axis_b")).normalized(), r, h}});
+    return v;
+  }();
+  return out;
+}
+
+template <class F>
+void run(benchmark::State& state, F query) {
+  const auto& p = poses();
+  if (p.empty()) {
+    state.SkipWithError("cylinder_distance.json not found (set RINGSIM_TESTDATA_DIR)");
+    return;
+  }
+  std::size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(query(p[i]));
+    if (++i == p.size()) i = 0;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+
+void BM_SphereCylinder(benchmark::State& state) {
+  // Sphere of radius 1 centred on b's centre, against cylinder a.
+  run(state, [](const Pose& q) { return sphere_cylinder(q.b.center, 1.0, q.a).distance; });
+}
+BENCHMARK(BM_SphereCylinder);
+
+void BM_CylinderCylinder(benchmark::State& state) {
+  run(state, [](const Pose& q) { return cylinder_cylinder(q.a, q.b).distance; });
+}
+BENCHMARK(BM_CylinderCylinder);
+
+void BM_CylinderCylinderFcl(benchmark::State& state) {
+  const double tol = 1.0 / static_cast<double>(state.range(0));
+  run(state, [tol](const Pose& q) { return cylinder_cylinder_fcl(q.a, q.b, tol).distance; });
+}
+BENCHMARK(BM_CylinderCylinderFcl)->Arg(1000000)->Arg(10000000000);  // tolerance 1e-6, 1e-10
+
+void BM_FclCylindersOverlap(benchmark::State& state) {
+  run(state, [](const Pose& q) { return fcl_cylinders_overlap(q.a, q.b, 0.0); });
+}
+BENCHMARK(BM_FclCylindersOverlap);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,69 @@
+#pragma once
+// Narrow-phase geometry of the two shapes: solid spheres and solid right
+// circular cylinders (the linkers). All distances are between the solids
+// (0 or negative when they overlap); closest points are in world coordinates.
+//
+// Error budget (see docs/GEOMETRY.md): sphere-sphere and sphere-cylinder are
+// analytic (rounding only, ~1e-15 relative); cylinder-cylinder is
+// semi-analytic with an a-posteriori (duality-gap) error bound, ~1e-12 on
+// separated pairs, checked against ../shared/testdata.
+
+#include "core/vec.hpp"
+
+namespace ringsim::geom {
+
+struct Cylinder {
+  Vec3 center;
+  Vec3 axis;           // unit
+  double radius;
+  double half_length;  // half of end-face-to-end-face length
+};
+
+struct Separation {
+  double distance;  // > 0 separated; <= 0 touching/overlapping (value then not a depth)
+  Vec3 point_a;     // closest point on shape A
+  Vec3 point_b;     // closest point on shape B
+  Vec3 normal;      // unit, from A towards B (direction of point_b - point_a when separated)
+};
+
+// Distance from a point to the solid cylinder; closest point on the cylinder.
+// Inside the solid: distance 0 and the point itself.
+double point_cylinder_distance(const Vec3& p, const Cylinder& c, Vec3* closest);
+
+// Sphere (A) versus cylinder (B), analytic.
+Separation sphere_cylinder(const Vec3& center, double radius, const Cylinder& cyl);
+
+// Cylinder versus cylinder. `tolerance` is the absolute distance accuracy.
+// Uses cylinder_cylinder_features (certified to ~1e-12, ~0.5 us); if its
+// duality gap exceeds max(tolerance, 1e-9) -- in practice only overlapping
+// pairs it cannot certify -- the answer comes from cylinder_cylinder_fcl.
+Separation cylinder_cylinder(const Cylinder& a, const Cylinder& b, double tolerance = 1e-10);
+
+// The two cylinder-cylinder solvers behind cylinder_cylinder(), exposed so
+// tests and benchmarks can compare them.
+//
+// Feature-based solver (see geometry.cpp): lateral-lateral contact is the
+// segment-segment problem; every other closest pair involves a rim circle and
+// is found by a global 1-D minimisation over the rim angle. Accuracy ~1e-12,
+// independent of `tolerance`. If `gap` is non-null it receives an a-posteriori
+// error bound: (returned distance) - (separating-plane lower bound along the
+// returned normal); 0 when the result certifies an overlap.
+Separation cylinder_cylinder_features(const Cylinder& a, const Cylinder& b, double* gap = nullptr);
+
+// FCL 0.7 GJK (GST_INDEP) with distance_tolerance = tolerance; overlapping
+// pairs get FCL's signed (EPA) distance. Points are returned in world frame.
+Separation cylinder_cylinder_fcl(const Cylinder& a, const Cylinder& b, double tolerance = 1e-10);
+
+// Number of cylinder_cylinder() calls on this thread whose feature-solver
+// result failed its duality-gap check and were answered by FCL instead.
+long cylinder_cylinder_fallbacks();
+
+// Support value: max over points x of the solid of n.(x - center), |n| = 1.
+double cylinder_support(const Cylinder& c, const Vec3& n);
+
+// Independent overlap oracle (FCL collide) used by the validation mode:
+// true when the solids, each shrunk by `slack` on every surface, intersect.
+bool fcl_cylinders_overlap(const Cylinder& a, const Cylinder& b, double slack);
+bool fcl_sphere_cylinder_overlap(const Vec3& center, double radius, const Cylinder& c, double slack);
+
+}  // namespace ringsim::geom
