@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/motion.hpp"
+#include "core/separating_plane.hpp"
 
 namespace ringsim {
 
@@ -49,6 +50,45 @@ Vec3 support_point_of(const Kinematics& k, const Species& s, double t, const Vec
 // shape; spin about the axis does not).
 Vec3 surface_velocity(const Kinematics& k, double t, const Vec3& p, const Vec3& center) {
   return k.v + k.precession.cross(p - center);
+}
+
+// Well-conditioned contact normals from the closest features. A normal taken
+// as (point_b - point_a) / d loses all accuracy as d -> 0, and the plane bound
+// with a normal off by e is low by about e * R; the feature normals below do
+// not depend on d: a face's axis, the lateral surface's radial direction, and
+// for two rims (an edge-edge contact) the cross product of their tangents.
+struct FeatureNormal {
+  bool has_normal = false;  // outward normal of the body at the point
+  Vec3 normal;
+  bool on_rim = false;      // rim tangent available
+  Vec3 tangent;
+};
+
+FeatureNormal feature_at(const Vec3& p, const Vec3& center, const Vec3& axis, const Species& s) {
+  FeatureNormal f;
+  if (s.shape == Shape::Sphere) {
+    f.has_normal = true;
+    f.normal = (p - center).normalized();
+    return f;
+  }
+  const Vec3 d = p - center;
+  const double a = d.dot(axis);
+  const Vec3 radial = d - a * axis;
+  const double rho = radial.norm();
+  const double tol = 1e-7 * (s.radius + s.half_length);
+  const bool on_face = std::abs(std::abs(a) - s.half_length) <= tol;
+  const bool on_side = std::abs(rho - s.radius) <= tol;
+  if (on_face && on_side) {
+    f.on_rim = true;
+    f.tangent = axis.cross(radial / rho);
+  } else if (on_face) {
+    f.has_normal = true;
+    f.normal = a > 0.0 ? axis : Vec3(-axis);
+  } else if (on_side && rho > 0.0) {
+    f.has_normal = true;
+    f.normal = radial / rho;
+  }
+  return f;
 }
 
 }  // namespace
@@ -116,24 +156,71 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
   double s = t + enter;
   const double end = std::min(limit, t + leave);
   const double bound = dv.norm() + shape_rotation_speed(ki, si) + shape_rotation_speed(kj, sj);
+  if (bound == 0.0) return kNever;  // rigidly fixed relative pose: the gap never changes
   for (int step = 0; step < kMaxSteps; ++step) {
     if (s >= end) return kNever;
     ++ca_iterations_;
     const ContactGeometry g = contact_geometry(i, j, s);
     const double d = g.sep.distance;
-    double h;
-    if (d <= delta_) {
-      if (approach_rate(i, j, s, g) < 0.0) return s;
-      // Touching but separating: creep on without letting the gap close.
-      h = std::max(d, 1e-3 * delta_) / (2.0 * bound);
-    } else {
-      h = (d - 0.5 * delta_) / bound;
+    if (d <= delta_ && approach_rate(i, j, s, g) < 0.0) return s;
+    if (d <= 0.0) {
+      // Touching within rounding and separating: creep (cannot close a gap).
+      s += 1e-3 * delta_ / bound;
+      continue;
     }
-    if (bound == 0.0) return kNever;  // rigidly fixed relative pose: gap never changes
-    s += std::max(h, 1e-15 * std::max(1.0, std::abs(s)));
+    // Outside the contact band aim at delta/2; inside it (separating after a
+    // contact) aim at half the current gap, so the gap never closes unseen.
+    const double gap = std::min(d, delta_);
+    const double target = 0.5 * gap, stop = 0.75 * gap;
+    const SeparatingPlane plane = best_plane(i, j, s, g, stop);
+    if (plane.at(s) <= stop) {
+      // The plane is no tighter than the stop level (n from an iterative
+      // solver, or a corner case): take the plain conservative step.
+      s += (d - target) / bound;
+      continue;
+    }
+    s = advance_plane(plane, s, end, target, stop, bound, &plane_evaluations_);
   }
   failed_ = true;
   return kNever;
+}
+
+SeparatingPlane Predictor::plane_along(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const {
+  SeparatingPlane plane;
+  plane.t0 = t;
+  plane.offset = n.dot(g.center_b - g.center_a);
+  plane.slope = n.dot(b_.kin[j].v - b_.kin[i].v);
+  plane.a = SupportTrack::of(b_.kin[i], b_.sp(i), n, t);
+  plane.b = SupportTrack::of(b_.kin[j], b_.sp(j), -n, t);
+  return plane;
+}
+
+SeparatingPlane Predictor::best_plane(int i, int j, double t, const ContactGeometry& g, double good_enough) const {
+  const Vec3& n = g.sep.normal;
+  SeparatingPlane best = plane_along(i, j, t, g, n);
+  double value = best.at(t);
+  // The solver's normal is accurate when the gap is not tiny.
+  if (value >= 0.5 * g.sep.distance && value > good_enough) return best;
+  const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, axis_at(b_.kin[i], t), b_.sp(i));
+  const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, axis_at(b_.kin[j], t), b_.sp(j));
+  Vec3 candidates[3];
+  int count = 0;
+  if (fa.has_normal) candidates[count++] = fa.normal;
+  if (fb.has_normal) candidates[count++] = -fb.normal;
+  if (fa.on_rim && fb.on_rim) {
+    const Vec3 c = fa.tangent.cross(fb.tangent);
+    if (c.squaredNorm() > 1e-12) candidates[count++] = c.dot(n) >= 0.0 ? Vec3(c.normalized()) : Vec3(-c.normalized());
+  }
+  for (int k = 0; k < count; ++k) {
+    if (candidates[k].dot(n) <= 0.0) continue;
+    const SeparatingPlane p = plane_along(i, j, t, g, candidates[k]);
+    const double v = p.at(t);
+    if (v > value) {
+      value = v;
+      best = p;
+    }
+  }
+  return best;
 }
 
 Vec3 Predictor::support_point(int i, double t, const Vec3& n) const {
@@ -166,36 +253,43 @@ WallHit Predictor::wall(int i, double t, double limit) {
         // The centre's distance to the wall is linear in time; the solid can
         // touch the wall only while it is within R (+ delta): one window.
         const double reach = R + delta_;
-        double s0, end = best.time;
+        double sc, end = best.time;
         if (rate_c < 0.0) {
-          s0 = t + std::max(0.0, gap_c - reach) / -rate_c;
+          sc = t + std::max(0.0, gap_c - reach) / -rate_c;
         } else if (gap_c <= reach) {
-          s0 = t;
+          sc = t;
           if (rate_c > 0.0) end = std::min(end, t + (reach - gap_c) / rate_c);
         } else {
           continue;
         }
         const double bound = std::abs(k.v[d]) + rot;
+        if (bound == 0.0) continue;
         Vec3 n = Vec3::Zero();
-        n[d] = dir;
-        double sc = s0;
+        n[d] = dir;  // from the body towards the wall
+        // The wall is a half-space: along its normal the plane bound is the
+        // exact gap, g(t) = offset + slope (t - t0) - support(n, t).
+        SeparatingPlane plane;
+        plane.t0 = sc;
+        plane.offset = dir > 0 ? L - position_at(k, sc)[d] : position_at(k, sc)[d];
+        plane.slope = rate_c;
+        plane.a = SupportTrack::of(k, s, n, sc);
+        plane.b = SupportTrack::constant(0.0);
         for (int step = 0; step < kMaxSteps && sc < end; ++step) {
           ++ca_iterations_;
-          const Vec3 p = support_point_of(k, s, sc, n);
-          const double g = dir > 0 ? L - p[d] : p[d];
-          double h;
+          const double g = plane.at(sc);
           if (g <= delta_) {
-            const Vec3 up = surface_velocity(k, sc, p, position_at(k, sc));
-            if (dir * up[d] > 0.0) {
+            const Vec3 p = support_point_of(k, s, sc, n);
+            if (dir * surface_velocity(k, sc, p, position_at(k, sc))[d] > 0.0) {
               best = {sc, d, dir};
               break;
             }
-            h = std::max(g, 1e-3 * delta_) / (2.0 * bound);
-          } else {
-            h = (g - 0.5 * delta_) / bound;
           }
-          if (bound == 0.0) break;
-          sc += std::max(h, 1e-15 * std::max(1.0, std::abs(sc)));
+          const double gap = std::min(g, delta_);
+          if (gap <= 0.0) {
+            sc += 1e-3 * delta_ / bound;
+            continue;
+          }
+          sc = advance_plane(plane, sc, end, 0.5 * gap, 0.75 * gap, bound, &plane_evaluations_);
           if (step + 1 == kMaxSteps) failed_ = true;
         }
       }

@@ -24,6 +24,7 @@
 
 #include "core/body.hpp"
 #include "core/geometry.hpp"
+#include "core/separating_plane.hpp"
 
 namespace ringsim {
 
@@ -70,6 +71,7 @@ class Predictor {
   Vec3 support_point(int i, double t, const Vec3& n) const;
 
   std::uint64_t ca_iterations() const { return ca_iterations_; }
+  long plane_evaluations() const { return plane_evaluations_; }
   bool failed() const { return failed_; }
 
   // Safety net against a search that cannot converge (it reports, never skips).
@@ -78,11 +80,15 @@ class Predictor {
  private:
   double sphere_sphere(int i, int j, double t, double limit) const;
   double advance_pair(int i, int j, double t, double limit);
+  SeparatingPlane plane_along(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const;
+  // The tightest plane bound among the solver's normal and the feature normals.
+  SeparatingPlane best_plane(int i, int j, double t, const ContactGeometry& g, double good_enough) const;
 
   const BodyStore& b_;
   Box box_;
   double delta_;
   std::uint64_t ca_iterations_ = 0;
+  long plane_evaluations_ = 0;
   bool failed_ = false;
 };
 

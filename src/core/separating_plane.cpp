@@ -1,0 +1,122 @@
+#include "core/separating_plane.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/motion.hpp"
+
+namespace ringsim {
+
+SupportTrack SupportTrack::constant(double value) {
+  SupportTrack s;
+  s.constant_ = true;
+  s.value_ = value;
+  return s;
+}
+
+SupportTrack SupportTrack::of(const Kinematics& k, const Species& sp, const Vec3& m, double t0) {
+  if (sp.shape == Shape::Sphere) return constant(sp.radius);
+  SupportTrack s;
+  s.constant_ = false;
+  s.t0_ = t0;
+  s.a_ = sp.half_length;
+  s.r_ = sp.radius;
+  const Vec3 u = axis_at(k, t0);
+  const double w = k.precession.norm();
+  if (w == 0.0) {
+    // No rotation: c is constant.
+    s.rate_ = 0.0;
+    s.alpha_ = m.dot(u);
+    s.rho_ = 0.0;
+    s.cross0_ = m.cross(u);
+    s.cross_cos_ = s.cross_sin_ = Vec3::Zero();
+    return s;
+  }
+  // u(t) = e (e.u0) + cos(th) u_perp + sin(th) (e x u0), th = w (t - t0)
+  // (Rodrigues), so c = m.u = alpha + P cos(th) + Q sin(th)
+  //                       = alpha + rho cos(th - phi).
+  const Vec3 e = k.precession / w;
+  const double eu = e.dot(u);
+  s.rate_ = w;
+  s.alpha_ = m.dot(e) * eu;
+  const double P = m.dot(u - eu * e);
+  const double Q = m.dot(e.cross(u));
+  s.rho_ = std::hypot(P, Q);
+  s.phi_ = std::atan2(Q, P);
+  s.cross0_ = eu * m.cross(e);
+  s.cross_cos_ = m.cross(u - eu * e);
+  s.cross_sin_ = m.cross(e.cross(u));
+  return s;
+}
+
+double SupportTrack::h_at_theta(double th) const {
+  const double c = c_of(th);
+  const double sine = (cross0_ + cross_cos_ * std::cos(th) + cross_sin_ * std::sin(th)).norm();
+  return a_ * std::abs(c) + r_ * std::min(1.0, sine);
+}
+
+double SupportTrack::h_of_c(double c) const {
+  // Only used away from c = +-1 (at the interior maximiser), where it is well conditioned.
+  return a_ * std::abs(c) + r_ * std::sqrt(std::max(0.0, 1.0 - c * c));
+}
+
+double SupportTrack::at(double t) const { return constant_ ? value_ : h_at_theta(theta(t)); }
+
+double SupportTrack::max_over(double t1, double t2) const {
+  if (constant_) return value_;
+  const double th1 = theta(t1), th2 = theta(t2);
+  // H depends on time only through c(th) = alpha + rho cos(th - phi). Its
+  // maximum over [th1, th2] is at an end, at an extremum of c inside the
+  // interval, or where c passes a maximiser of H(c) = a|c| + r sqrt(1 - c^2),
+  // which is concave on [-1, 0] and on [0, 1] with maxima at c = +-a/sqrt(a^2 + r^2).
+  double best = std::max(h_at_theta(th1), h_at_theta(th2));
+  double lo = std::min(c_of(th1), c_of(th2)), hi = std::max(c_of(th1), c_of(th2));
+  if (rho_ > 0.0 && rate_ > 0.0) {
+    const double two_pi = 2.0 * M_PI;
+    const double th_max = phi_ + two_pi * std::ceil((th1 - phi_) / two_pi);
+    if (th_max <= th2) {
+      hi = alpha_ + rho_;
+      best = std::max(best, h_at_theta(th_max));
+    }
+    const double th_min = phi_ + M_PI + two_pi * std::ceil((th1 - phi_ - M_PI) / two_pi);
+    if (th_min <= th2) {
+      lo = alpha_ - rho_;
+      best = std::max(best, h_at_theta(th_min));
+    }
+  }
+  const double cs = a_ / std::hypot(a_, r_);
+  if (lo <= cs && cs <= hi) best = std::max(best, h_of_c(cs));
+  if (lo <= -cs && -cs <= hi) best = std::max(best, h_of_c(-cs));
+  // Guard the rounding of the evaluations above (values are O(a + r)).
+  return best + 8.0 * 2.2e-16 * (a_ + r_);
+}
+
+double advance_plane(const SeparatingPlane& plane, double t, double end, double target, double stop,
+                     double rate_bound, long* evaluations) {
+  double step = 0.0;
+  while (t < end) {
+    const double s = plane.at(t);
+    ++*evaluations;
+    if (s <= stop) return t;
+    // Always safe: s cannot fall by more than rate_bound * h in time h.
+    const double safe = (s - target) / rate_bound;
+    double trial = std::max(step, safe);
+    for (;;) {
+      if (trial <= safe) {
+        t += safe;
+        step = 2.0 * safe;
+        break;
+      }
+      ++*evaluations;
+      if (plane.lower_bound(t, t + trial) > target) {
+        t += trial;
+        step = 2.0 * trial;
+        break;
+      }
+      trial *= 0.25;
+    }
+  }
+  return end;
+}
+
+}  // namespace ringsim

@@ -1,0 +1,79 @@
+#pragma once
+// Certified lower bounds on the gap between two moving bodies, from a fixed
+// separating direction (used by the conservative advancement in
+// prediction.cpp; see docs/ARCHITECTURE.md, "Prediction").
+//
+// For any unit vector n, the separation of two convex solids A and B along n,
+//     s(t) = n.(x_B(t) - x_A(t)) - h_A(n, t) - h_B(-n, t),
+// is a lower bound of their distance d(t) (h = support of the solid about its
+// centre). Between events every shape moves as a uniform translation plus a
+// uniform rotation about a fixed axis (a free linker's axis precesses rigidly
+// about L; a sphere's rotation does not move its shape), so for a fixed n
+//  - the centre term is linear in t;
+//  - a linker's support is H = a|c| + r |n x u| with
+//    c(t) = n.u(t) = alpha + rho cos(w (t - t0) - phi), a sinusoid, and
+//    n x u(t) = A + B cos(th) + C sin(th). The sine part is evaluated from the
+//    vector, not as sqrt(1 - c^2): near face-on poses (c -> +-1) the latter
+//    turns a rounding error of 1e-16 in c into 1.5e-8 in the support, enough
+//    to step a face contact into overlap.
+// H is concave on each side of c = 0, with its maximum at
+// c = +-a / sqrt(a^2 + r^2); the exact maximum of H over the range of c on a
+// time interval is therefore a handful of evaluations. That gives a rigorous
+// lower bound of s on any interval, which the advancement uses to take steps
+// as long as the geometry allows, instead of the global rate bound of plain
+// conservative advancement (Mirtich 1996), which is kept as the fallback
+// step that guarantees progress.
+
+#include <cmath>
+
+#include "core/body.hpp"
+#include "core/vec.hpp"
+
+namespace ringsim {
+
+// Support value of one body along a fixed world direction, over time.
+class SupportTrack {
+ public:
+  // Constant support (a sphere of this radius; 0 for a wall plane).
+  static SupportTrack constant(double value);
+  // Body k (its shape in species s) along unit direction m, from time t0.
+  static SupportTrack of(const Kinematics& k, const Species& s, const Vec3& m, double t0);
+
+  double at(double t) const;
+  // Upper bound (exact maximum up to rounding) of the support over [t1, t2].
+  double max_over(double t1, double t2) const;
+
+ private:
+  double theta(double t) const { return rate_ * (t - t0_); }
+  double c_of(double th) const { return alpha_ + rho_ * std::cos(th - phi_); }
+  double h_at_theta(double th) const;
+  double h_of_c(double c) const;
+  bool constant_ = true;
+  double value_ = 0.0;  // constant case
+  double t0_ = 0.0, rate_ = 0.0, alpha_ = 0.0, rho_ = 0.0, phi_ = 0.0;
+  double a_ = 0.0, r_ = 0.0;
+  Vec3 cross0_, cross_cos_, cross_sin_;  // n x u(th) = cross0 + cross_cos cos(th) + cross_sin sin(th)
+};
+
+// s(t) = offset + slope (t - t0) - a(t) - b(t).
+struct SeparatingPlane {
+  double t0 = 0.0;
+  double offset = 0.0;
+  double slope = 0.0;
+  SupportTrack a, b;
+
+  double at(double t) const { return offset + slope * (t - t0) - a.at(t) - b.at(t); }
+  double lower_bound(double t1, double t2) const {
+    const double lin = offset + slope * ((slope < 0.0 ? t2 : t1) - t0);
+    return lin - a.max_over(t1, t2) - b.max_over(t1, t2);
+  }
+};
+
+// Starting at t (where s(t) > target), advance while the plane certifies
+// s > target, and return the first certified time at which s(t) <= stop
+// (target < stop), or `end` if the window closes first. `rate_bound` bounds
+// |ds/dt| and guarantees progress. `evaluations` counts plane evaluations.
+double advance_plane(const SeparatingPlane& plane, double t, double end, double target, double stop,
+                     double rate_bound, long* evaluations);
+
+}  // namespace ringsim
