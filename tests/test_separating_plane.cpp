@@ -76,11 +76,34 @@ TEST(SeparatingPlane, PlaneNeverExceedsTrueDistance) {
         EXPECT_LE(pl.at(t), s.distance + 1e-9);
         ++checked;
       }
-      const double lb = pl.lower_bound(t, t + 0.05);
+      const double lb = pl.lower_bound(t, t + 0.05, pl.at(t));
       for (int m = 0; m <= 50; ++m) EXPECT_LE(lb, pl.at(t + 0.001 * m) + 1e-13);
     }
   }
   EXPECT_GT(checked, 1000);
+}
+
+TEST(SeparatingPlane, RateBoundIsAnUpperBoundOfTheDerivative) {
+  SimParams p;
+  const Species L = make_species(Shape::Linker, p);
+  Rng rng(8, 0, Stream::Placement);
+  int bounded = 0;
+  for (int trial = 0; trial < 500; ++trial) {
+    const Kinematics k = random_linker(rng, L, Vec3::Zero());
+    const Vec3 n = rng.unit_vector();
+    const SupportTrack tr = SupportTrack::of(k, L, n, 0.0);
+    const double t1 = rng.uniform(0, 3), t2 = t1 + 0.2 * rng.uniform(0, 1);
+    const double bound = tr.max_rate_over(t1, t2);
+    if (!std::isfinite(bound)) continue;
+    ++bounded;
+    // Finite-difference slopes on a fine grid never exceed the bound.
+    const double h = (t2 - t1) / 400.0;
+    for (int m = 0; m < 400; ++m) {
+      const double a = t1 + m * h;
+      EXPECT_LE((tr.at(a + h) - tr.at(a)) / h, bound + 1e-7) << "trial " << trial;
+    }
+  }
+  EXPECT_GT(bounded, 400);
 }
 
 }  // namespace

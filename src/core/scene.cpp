@@ -167,10 +167,17 @@ BodyStore build_scene(const SimParams& p, std::uint64_t seed, std::uint64_t repl
     Lattice& lat = lattices[species][own];
     if (!lat.built) {
       const Region r = region_of(s, own);
-      const double a = 2.0 * s.bounding_radius + margin;
+      // A fine jittered grid (a quarter of the body's bounding diameter) finds
+      // the holes random placement leaves; a site that fails once stays
+      // blocked (bodies are only added), so one pass over the shuffled sites
+      // suffices for all bodies of the region.
+      const double a = 0.5 * s.bounding_radius;
       for (double x = r.lo.x() + 0.5 * a; x < r.hi.x(); x += a)
         for (double y = r.lo.y() + 0.5 * a; y < r.hi.y(); y += a)
-          for (double z = r.lo.z() + 0.5 * a; z < r.hi.z(); z += a) lat.sites.emplace_back(x, y, z);
+          for (double z = r.lo.z() + 0.5 * a; z < r.hi.z(); z += a)
+            lat.sites.emplace_back(std::min(x + a * (grid_rng.uniform() - 0.5), r.hi.x()),
+                                   std::min(y + a * (grid_rng.uniform() - 0.5), r.hi.y()),
+                                   std::min(z + a * (grid_rng.uniform() - 0.5), r.hi.z()));
       for (std::size_t k = lat.sites.size(); k > 1; --k) std::swap(lat.sites[k - 1], lat.sites[grid_rng.below(k)]);
       lat.built = true;
     }
@@ -191,7 +198,10 @@ BodyStore build_scene(const SimParams& p, std::uint64_t seed, std::uint64_t repl
     const bool own = rng.uniform() >= p.init.alpha;  // probability 1 - alpha: own half
     const Region region = region_of(s, own);
     bool done = false;
-    for (int trial = 0; trial < kRejectionTrials && !done; ++trial) {
+    // Once rejection has failed in a region, it stays inefficient there (the
+    // region only fills up): later bodies go straight to the grid.
+    const int trials = lattices[species][own].built ? 0 : kRejectionTrials;
+    for (int trial = 0; trial < trials && !done; ++trial) {
       const Vec3 x = draw_in(region);
       const Vec3 u = s.shape == Shape::Linker ? rng.unit_vector() : Vec3(0, 0, 1);
       if (placer.fits(i, x, u)) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/motion.hpp"
 
@@ -91,16 +92,70 @@ double SupportTrack::max_over(double t1, double t2) const {
   return best + 8.0 * 2.2e-16 * (a_ + r_);
 }
 
+namespace {
+
+struct Interval {
+  double lo, hi;
+};
+
+Interval operator*(Interval a, Interval b) {
+  const double p[4] = {a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi};
+  return {*std::min_element(p, p + 4), *std::max_element(p, p + 4)};
+}
+
+// Range of mean + amp cos(th - phase) over [th1, th2] (amp >= 0).
+Interval sinusoid_range(double mean, double amp, double phase, double th1, double th2) {
+  const double v1 = mean + amp * std::cos(th1 - phase), v2 = mean + amp * std::cos(th2 - phase);
+  Interval r{std::min(v1, v2), std::max(v1, v2)};
+  if (amp > 0.0) {
+    const double two_pi = 2.0 * M_PI;
+    if (phase + two_pi * std::ceil((th1 - phase) / two_pi) <= th2) r.hi = mean + amp;
+    if (phase + M_PI + two_pi * std::ceil((th1 - phase - M_PI) / two_pi) <= th2) r.lo = mean - amp;
+  }
+  return r;
+}
+
+}  // namespace
+
+double SupportTrack::max_rate_over(double t1, double t2) const {
+  if (constant_ || rate_ == 0.0 || rho_ == 0.0) return 0.0;
+  const double th1 = theta(t1), th2 = theta(t2);
+  // H = a|c| + r g with g = sqrt(1 - c^2); dH/dth = (a sgn(c) - r c / g) c'
+  // with c' = dc/dth = -rho sin(th - phi) = rho cos(th - (phi - pi/2)).
+  const Interval c = sinusoid_range(alpha_, rho_, phi_, th1, th2);
+  const Interval dc = sinusoid_range(0.0, rho_, phi_ - 0.5 * M_PI, th1, th2);
+  const double c2max = std::max(c.lo * c.lo, c.hi * c.hi);
+  const double gmin = std::sqrt(std::max(0.0, 1.0 - c2max));
+  if (gmin < 1e-3) return std::numeric_limits<double>::infinity();
+  const double c2min = (c.lo <= 0.0 && c.hi >= 0.0) ? 0.0 : std::min(c.lo * c.lo, c.hi * c.hi);
+  const double gmax = std::sqrt(std::max(0.0, 1.0 - c2min));
+  Interval sign{c.lo >= 0.0 ? 1.0 : -1.0, c.hi <= 0.0 ? -1.0 : 1.0};
+  if (c.lo > 0.0) sign = {1.0, 1.0};
+  if (c.hi < 0.0) sign = {-1.0, -1.0};
+  const Interval term1 = Interval{a_ * sign.lo, a_ * sign.hi} * dc;
+  const Interval inv_g{1.0 / gmax, 1.0 / gmin};
+  const Interval term2 = (c * dc) * inv_g;  // enters with factor -r
+  const double hi = term1.hi - r_ * term2.lo;
+  // Guard rounding (relative 1e-12 of the scale of the rate).
+  return rate_ * (hi + 1e-12 * (a_ + r_ / gmin) * rho_);
+}
+
 double advance_plane(const SeparatingPlane& plane, double t, double end, double target, double stop,
-                     double rate_bound, long* evaluations) {
+                     double rate_bound, long* evaluations, int budget) {
   double step = 0.0;
+  const long first = *evaluations;
   while (t < end) {
+    if (*evaluations - first >= budget) return t;  // the normal has gone stale: let the caller refresh it
     const double s = plane.at(t);
     ++*evaluations;
     if (s <= stop) return t;
     // Always safe: s cannot fall by more than rate_bound * h in time h.
     const double safe = (s - target) / rate_bound;
+    // First guess: the Newton step to the target when approaching, else keep
+    // growing the last accepted step.
+    const double rate = plane.rate_at(t);
     double trial = std::max(step, safe);
+    if (rate < 0.0) trial = std::max(safe, std::min(2.0 * std::max(step, safe), 0.9 * (s - target) / -rate));
     for (;;) {
       if (trial <= safe) {
         t += safe;
@@ -108,12 +163,12 @@ double advance_plane(const SeparatingPlane& plane, double t, double end, double 
         break;
       }
       ++*evaluations;
-      if (plane.lower_bound(t, t + trial) > target) {
+      if (plane.lower_bound(t, t + trial, s) > target) {
         t += trial;
         step = 2.0 * trial;
         break;
       }
-      trial *= 0.25;
+      trial *= 0.5;
     }
   }
   return end;

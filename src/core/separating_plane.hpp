@@ -24,6 +24,7 @@
 // conservative advancement (Mirtich 1996), which is kept as the fallback
 // step that guarantees progress.
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/body.hpp"
@@ -42,6 +43,11 @@ class SupportTrack {
   double at(double t) const;
   // Upper bound (exact maximum up to rounding) of the support over [t1, t2].
   double max_over(double t1, double t2) const;
+  // Upper bound of the support's rate of change d/dt over [t1, t2] (interval
+  // arithmetic on the derivative; +infinity where it cannot be bounded, i.e.
+  // when the axis passes within 1e-3 rad of the direction). t1 == t2 gives
+  // the derivative itself (the larger one-sided value at a kink).
+  double max_rate_over(double t1, double t2) const;
 
  private:
   double theta(double t) const { return rate_ * (t - t0_); }
@@ -63,17 +69,31 @@ struct SeparatingPlane {
   SupportTrack a, b;
 
   double at(double t) const { return offset + slope * (t - t0) - a.at(t) - b.at(t); }
-  double lower_bound(double t1, double t2) const {
+  // Two rigorous lower bounds of s over [t1, t2], the larger returned:
+  //  - values: min of the linear part minus the maxima of the supports;
+  //  - rates: s(t1) + (t2 - t1) * min ds/dt, with min ds/dt = slope - the
+  //    maxima of the supports' rates. Its pessimism vanishes as t2 -> t1,
+  //    so near a contact the steps approach Newton steps.
+  // `s1` is s(t1) (already known to the caller).
+  double lower_bound(double t1, double t2, double s1) const {
     const double lin = offset + slope * ((slope < 0.0 ? t2 : t1) - t0);
-    return lin - a.max_over(t1, t2) - b.max_over(t1, t2);
+    const double by_value = lin - a.max_over(t1, t2) - b.max_over(t1, t2);
+    const double min_rate = slope - a.max_rate_over(t1, t2) - b.max_rate_over(t1, t2);
+    const double by_rate = min_rate < 0.0 ? s1 + (t2 - t1) * min_rate : s1;
+    return std::max(by_value, by_rate);
   }
+  // ds/dt at t, the smaller one-sided value at a kink.
+  double rate_at(double t) const { return slope - a.max_rate_over(t, t) - b.max_rate_over(t, t); }
 };
 
 // Starting at t (where s(t) > target), advance while the plane certifies
 // s > target, and return the first certified time at which s(t) <= stop
-// (target < stop), or `end` if the window closes first. `rate_bound` bounds
-// |ds/dt| and guarantees progress. `evaluations` counts plane evaluations.
+// (target < stop), or `end` if the window closes first, or the time reached
+// after `budget` evaluations (a fixed normal stops being a tight bound once the
+// closest features move on; a fresh one costs about as much as ten
+// evaluations). `rate_bound` bounds |ds/dt| and guarantees progress.
+// `evaluations` counts plane evaluations.
 double advance_plane(const SeparatingPlane& plane, double t, double end, double target, double stop,
-                     double rate_bound, long* evaluations);
+                     double rate_bound, long* evaluations, int budget);
 
 }  // namespace ringsim

@@ -214,6 +214,7 @@ Termination Simulation::run() {
   while (step()) {
   }
   stats_.ca_steps = predictor_.ca_iterations();
+  stats_.plane_evaluations = predictor_.plane_evaluations();
   if (termination_ != Termination::Error) synchronize(now_);
   return termination_;
 }

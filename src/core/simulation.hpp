@@ -45,6 +45,7 @@ struct RunStats {
   std::int64_t tc_collisions = 0;    // contacts made elastic by the TC model
   std::int64_t stick = 0, slide = 0; // frictional contact modes
   std::uint64_t ca_steps = 0;        // conservative-advancement distance evaluations
+  std::int64_t plane_evaluations = 0; // separating-plane bound evaluations
 };
 
 enum class Termination { Running, TimeLimit, EventBudget, Error };

@@ -54,6 +54,7 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   j["stick_contacts"] = s.stick;
   j["slide_contacts"] = s.slide;
   j["ca_steps"] = s.ca_steps;
+  j["plane_evaluations"] = s.plane_evaluations;
   j["t_end"] = sim.time();
   j["termination"] = to_string(term);
   if (term == Termination::Error) j["error"] = sim.error();
@@ -106,7 +107,7 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
     };
     out << "ringsim replicate (" << kVersion << ")\n";
     for (const char* k : {"seed", "spheres", "linkers", "packing_fraction", "mixing", "events", "collisions",
-                          "wall_collisions", "cell_crossings", "stale_events", "tc_collisions", "ca_steps", "t_end",
+                          "wall_collisions", "cell_crossings", "stale_events", "tc_collisions", "ca_steps", "plane_evaluations", "t_end",
                           "termination", "wall_seconds", "events_per_second"})
       row(k, j[k].dump());
     row("energy.translational", j["energy"]["translational"].dump());
