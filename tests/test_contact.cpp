@@ -46,7 +46,7 @@ BodyStore make_bodies(const SimParams& p, const std::vector<Init>& init) {
   b.species[1] = make_species(Shape::Linker, p);
   for (const Init& in : init) {
     b.shape.push_back(in.shape);
-    Kinematics k{in.x, in.v, in.axis.normalized(), Vec3::Zero(), 0.0, 0.0};
+    Kinematics k = make_kinematics(in.x, in.v, in.axis.normalized());
     set_angular_velocity(k, b.species[static_cast<int>(in.shape)], in.omega);
     b.kin.push_back(k);
   }

@@ -14,7 +14,8 @@ namespace ringsim {
 namespace {
 
 Kinematics random_linker(Rng& rng, const Species& s, const Vec3& x) {
-  Kinematics k{x, Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)), rng.unit_vector(), Vec3::Zero(), 0.0, 0.0};
+  const Vec3 v(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+  Kinematics k = make_kinematics(x, v, rng.unit_vector());
   set_angular_velocity(k, s, 2.0 * Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)));
   return k;
 }

@@ -26,14 +26,28 @@ namespace ringsim {
 
 enum class Shape : std::uint8_t { Sphere = 0, Linker = 1 };
 
-struct Kinematics {
+// Field order and alignment put x, t and v (all a sphere-sphere prediction
+// reads of its partner) in the first 64-byte cache line.
+struct alignas(64) Kinematics {
   Vec3 x;
+  double t;
   Vec3 v;
   Vec3 axis;
   Vec3 precession;
   double spin;
-  double t;
 };
+
+// A body at time 0 with the given centre, velocity and axis, not rotating.
+inline Kinematics make_kinematics(const Vec3& x, const Vec3& v, const Vec3& axis) {
+  Kinematics k;
+  k.x = x;
+  k.t = 0.0;
+  k.v = v;
+  k.axis = axis;
+  k.precession = Vec3::Zero();
+  k.spin = 0.0;
+  return k;
+}
 
 // Per-species constants (shape, mass, inertia, contact material).
 struct Species {

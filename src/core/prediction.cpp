@@ -98,9 +98,9 @@ FeatureNormal feature_at(const Vec3& p, const Vec3& center, const Vec3& axis, co
 
 }  // namespace
 
-double Predictor::sphere_sphere(int i, int j, double t, double limit) const {
+double Predictor::sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const {
   const Kinematics &ki = b_.kin[i], &kj = b_.kin[j];
-  const Vec3 dx = box_.min_image(position_at(kj, t) - position_at(ki, t));
+  const Vec3 dx = box_.min_image(position_at(kj, t) - xi);
   const Vec3 dv = kj.v - ki.v;
   const double b = dx.dot(dv);
   if (b >= 0.0) return kNever;  // not approaching
@@ -114,8 +114,8 @@ double Predictor::sphere_sphere(int i, int j, double t, double limit) const {
   return t + dt < limit ? t + dt : kNever;
 }
 
-double Predictor::pair(int i, int j, double t, double limit) {
-  if (b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) return sphere_sphere(i, j, t, limit);
+double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
+  if (b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) return sphere_sphere(i, j, t, limit, xi);
   return advance_pair(i, j, t, limit);
 }
 
@@ -200,24 +200,29 @@ SeparatingPlane Predictor::plane_along(int i, int j, double t, const ContactGeom
   return plane;
 }
 
-SeparatingPlane Predictor::best_plane(int i, int j, double t, const ContactGeometry& g, double good_enough) const {
+int Predictor::normal_candidates(int i, int j, double t, const ContactGeometry& g, Vec3 out[4]) const {
   const Vec3& n = g.sep.normal;
-  SeparatingPlane best = plane_along(i, j, t, g, n);
+  int count = 0;
+  out[count++] = n;
+  const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, axis_at(b_.kin[i], t), b_.sp(i));
+  const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, axis_at(b_.kin[j], t), b_.sp(j));
+  if (fa.has_normal && fa.normal.dot(n) > 0.0) out[count++] = fa.normal;
+  if (fb.has_normal && -fb.normal.dot(n) > 0.0) out[count++] = -fb.normal;
+  if (fa.on_rim && fb.on_rim) {
+    const Vec3 c = fa.tangent.cross(fb.tangent);
+    if (c.squaredNorm() > 1e-12) out[count++] = c.dot(n) >= 0.0 ? Vec3(c.normalized()) : Vec3(-c.normalized());
+  }
+  return count;
+}
+
+SeparatingPlane Predictor::best_plane(int i, int j, double t, const ContactGeometry& g, double good_enough) const {
+  SeparatingPlane best = plane_along(i, j, t, g, g.sep.normal);
   double value = best.at(t);
   // The solver's normal is accurate when the gap is not tiny.
   if (value >= 0.5 * g.sep.distance && value > good_enough) return best;
-  const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, axis_at(b_.kin[i], t), b_.sp(i));
-  const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, axis_at(b_.kin[j], t), b_.sp(j));
-  Vec3 candidates[3];
-  int count = 0;
-  if (fa.has_normal) candidates[count++] = fa.normal;
-  if (fb.has_normal) candidates[count++] = -fb.normal;
-  if (fa.on_rim && fb.on_rim) {
-    const Vec3 c = fa.tangent.cross(fb.tangent);
-    if (c.squaredNorm() > 1e-12) candidates[count++] = c.dot(n) >= 0.0 ? Vec3(c.normalized()) : Vec3(-c.normalized());
-  }
-  for (int k = 0; k < count; ++k) {
-    if (candidates[k].dot(n) <= 0.0) continue;
+  Vec3 candidates[4];
+  const int count = normal_candidates(i, j, t, g, candidates);
+  for (int k = 1; k < count; ++k) {
     const SeparatingPlane p = plane_along(i, j, t, g, candidates[k]);
     const double v = p.at(t);
     if (v > value) {
@@ -226,6 +231,94 @@ SeparatingPlane Predictor::best_plane(int i, int j, double t, const ContactGeome
     }
   }
   return best;
+}
+
+namespace {
+
+// Outward normal of cylinder c's lateral surface at the point nearest p
+// (radial direction from the axis): well conditioned, |radial| ~ radius.
+Vec3 lateral_normal(const Vec3& p, const Vec3& center, const Vec3& axis) {
+  Vec3 r = p - center;
+  r -= r.dot(axis) * axis;
+  return r.normalized();
+}
+
+// Polish a rim point P of cylinder X (rim centre C, axis u, radius r) in
+// contact with the lateral surface of Y: at the closest pair the rim tangent
+// is normal to Y's radial direction, f'(th) = radial_Y(P(th)) . P'(th) = 0.
+// Secant iterations from the solver's angle (which is certified in distance
+// only, i.e. to ~sqrt(1e-12) in angle).
+Vec3 polish_rim_against_side(const Vec3& P0, const Vec3& C, const Vec3& u, double r, const Vec3& y_center,
+                             const Vec3& y_axis) {
+  const Vec3 e1 = (P0 - C).normalized();
+  const Vec3 e2 = u.cross(e1);
+  auto point = [&](double th) { return C + r * (std::cos(th) * e1 + std::sin(th) * e2); };
+  auto slope = [&](double th) {
+    const Vec3 tangent = r * (-std::sin(th) * e1 + std::cos(th) * e2);
+    return lateral_normal(point(th), y_center, y_axis).dot(tangent);
+  };
+  double a = 0.0, fa = slope(a);
+  double b = 1e-6, fb = slope(b);
+  for (int it = 0; it < 8 && std::abs(fb) > 1e-15 * r && fb != fa; ++it) {
+    const double c = b - fb * (b - a) / (fb - fa);
+    a = b, fa = fb;
+    b = c, fb = slope(b);
+  }
+  return std::abs(fb) <= std::abs(fa) ? point(b) : point(a);
+}
+
+}  // namespace
+
+ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeometry& g) const {
+  // The true normal maximises the separation along it (weak duality), so the
+  // candidate with the largest plane value is the most accurate one.
+  Vec3 candidates[4];
+  const int count = normal_candidates(i, j, t, g, candidates);
+  Vec3 best = candidates[0];
+  double value = plane_along(i, j, t, g, best).at(t);
+  for (int k = 1; k < count; ++k) {
+    const double v = plane_along(i, j, t, g, candidates[k]).at(t);
+    if (v > value) {
+      value = v;
+      best = candidates[k];
+    }
+  }
+  ContactFrame f{best, 0.5 * (g.sep.point_a + g.sep.point_b)};
+  // A rim against a lateral surface: make the rim point exact, so that the
+  // line of action meets both axes (no spurious torque about either axis).
+  const Species &si = b_.sp(i), &sj = b_.sp(j);
+  if (si.shape != Shape::Linker || sj.shape != Shape::Linker) return f;
+  const Vec3 ua = axis_at(b_.kin[i], t), ub = axis_at(b_.kin[j], t);
+  const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, ua, si);
+  const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, ub, sj);
+  auto on_side = [](const Vec3& p, const Vec3& c, const Vec3& u, const Species& s) {
+    return std::abs((p - c).dot(u)) < s.half_length - 1e-7 * (s.radius + s.half_length);
+  };
+  auto rim_centre = [](const Vec3& p, const Vec3& c, const Vec3& u, const Species& s) {
+    return c + ((p - c).dot(u) > 0.0 ? s.half_length : -s.half_length) * u;
+  };
+  auto on_face = [](const FeatureNormal& f, const Vec3& u) { return f.has_normal && std::abs(f.normal.dot(u)) > 0.5; };
+  if (fa.on_rim && on_face(fb, ub)) {
+    // Rim against an end face: the face normal is exact; the rim point is the
+    // rim's extreme point along it (closed form).
+    f.normal = -fb.normal;
+    f.point = support_point_of(b_.kin[i], si, t, f.normal);
+  } else if (fb.on_rim && on_face(fa, ua)) {
+    f.normal = fa.normal;
+    // (shifted into the contact's minimum-image frame)
+    f.point = support_point_of(b_.kin[j], sj, t, -f.normal) + (g.center_b - position_at(b_.kin[j], t));
+  } else if (fa.on_rim && on_side(g.sep.point_b, g.center_b, ub, sj)) {
+    const Vec3 P = polish_rim_against_side(g.sep.point_a, rim_centre(g.sep.point_a, g.center_a, ua, si), ua, si.radius,
+                                           g.center_b, ub);
+    f.normal = -lateral_normal(P, g.center_b, ub);
+    f.point = P;
+  } else if (fb.on_rim && on_side(g.sep.point_a, g.center_a, ua, si)) {
+    const Vec3 P = polish_rim_against_side(g.sep.point_b, rim_centre(g.sep.point_b, g.center_b, ub, sj), ub, sj.radius,
+                                           g.center_a, ua);
+    f.normal = lateral_normal(P, g.center_a, ua);
+    f.point = P;
+  }
+  return f;
 }
 
 Vec3 Predictor::support_point(int i, double t, const Vec3& n) const {

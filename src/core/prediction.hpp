@@ -33,9 +33,17 @@ inline constexpr double kNever = std::numeric_limits<double>::infinity();
 struct Box {
   double length;
   bool periodic;
+  // Minimum image of a separation. Centres stay within [0, L) up to the
+  // motion since their last cell event (they wrap when they cross the box
+  // face), so |d| < 1.5 L and one conditional shift per component suffices.
   Vec3 min_image(Vec3 d) const {
-    if (periodic)
-      for (int k = 0; k < 3; ++k) d[k] -= length * std::nearbyint(d[k] / length);
+    if (periodic) {
+      const double half = 0.5 * length;
+      for (int k = 0; k < 3; ++k) {
+        if (d[k] > half) d[k] -= length;
+        else if (d[k] < -half) d[k] += length;
+      }
+    }
     return d;
   }
 };
@@ -45,6 +53,11 @@ struct ContactGeometry {
   geom::Separation sep;  // A = body a, B = body b
   Vec3 center_a;
   Vec3 center_b;         // minimum image relative to center_a
+};
+
+struct ContactFrame {
+  Vec3 normal;  // unit, A to B
+  Vec3 point;   // where the impulse acts
 };
 
 struct WallHit {
@@ -58,12 +71,20 @@ class Predictor {
   Predictor(const BodyStore& bodies, Box box, double contact_tolerance)
       : b_(bodies), box_(box), delta_(contact_tolerance) {}
 
-  // Earliest contact of i and j in [t, limit); kNever if none.
-  double pair(int i, int j, double t, double limit);
+  // Earliest contact of i and j in [t, limit); kNever if none. xi is body i's
+  // centre at t (hoisted out of the caller's neighbour loop).
+  double pair(int i, int j, double t, double limit, const Vec3& xi);
   // Earliest wall contact of i in [t, limit) (reflective boxes).
   WallHit wall(int i, double t, double limit);
 
   ContactGeometry contact_geometry(int i, int j, double t) const;
+  // Contact normal (A to B) and point for the impulse: among the solver's
+  // normal and the well-conditioned feature normals (face axis, lateral radial
+  // direction, rim-tangent cross product for rim-rim contacts), the one with
+  // the largest separation; a rim point against a lateral surface is polished
+  // to the exact closest point. The line of action then meets the axis of each
+  // cylinder, so smooth contacts leave the spin about the axis unchanged.
+  ContactFrame contact_frame(int i, int j, double t, const ContactGeometry& g) const;
   // Rate of change of the gap at the contact (negative: approaching).
   double approach_rate(int i, int j, double t, const ContactGeometry& g) const;
 
@@ -78,8 +99,9 @@ class Predictor {
   static constexpr int kMaxSteps = 10'000'000;
 
  private:
-  double sphere_sphere(int i, int j, double t, double limit) const;
+  double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
   double advance_pair(int i, int j, double t, double limit);
+  int normal_candidates(int i, int j, double t, const ContactGeometry& g, Vec3 out[4]) const;
   SeparatingPlane plane_along(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const;
   // The tightest plane bound among the solver's normal and the feature normals.
   SeparatingPlane best_plane(int i, int j, double t, const ContactGeometry& g, double good_enough) const;

@@ -118,7 +118,7 @@ BodyStore build_scene(const SimParams& p, std::uint64_t seed, std::uint64_t repl
   BodyStore b;
   b.species[0] = make_species(Shape::Sphere, p);
   b.species[1] = make_species(Shape::Linker, p);
-  b.kin.assign(n, Kinematics{Vec3::Zero(), Vec3::Zero(), Vec3(0, 0, 1), Vec3::Zero(), 0.0, 0.0});
+  b.kin.assign(n, make_kinematics(Vec3::Zero(), Vec3::Zero(), Vec3(0, 0, 1)));
   b.shape.assign(n, Shape::Sphere);
   for (int i = ns; i < n; ++i) b.shape[i] = Shape::Linker;
   b.counter.assign(n, 0);

@@ -53,7 +53,8 @@ Simulation::~Simulation() = default;
 
 void Simulation::predict(int i, double t) {
   const Kinematics& k = bodies_.kin[i];
-  const CellGrid::Exit ex = grid_.exit_time(grid_.cell_of_body(i), position_at(k, t), k.v);
+  const Vec3 xi = position_at(k, t);
+  const CellGrid::Exit ex = grid_.exit_time(grid_.cell_of_body(i), xi, k.v);
   Event best;
   best.time = t + ex.dt;
   best.type = EventType::CellCross;
@@ -70,7 +71,7 @@ void Simulation::predict(int i, double t) {
   }
   grid_.for_each_near(grid_.cell_of_body(i), [&](int j) {
     if (j == i) return;
-    const double tc = predictor_.pair(i, j, t, best.time);
+    const double tc = predictor_.pair(i, j, t, best.time, xi);
     if (tc < best.time) {
       best.time = tc;
       best.type = EventType::Collision;
@@ -94,7 +95,8 @@ void Simulation::process_collision(int i, int j, double t) {
   advance(bodies_.kin[i], t);
   advance(bodies_.kin[j], t);
   const ContactGeometry g = predictor_.contact_geometry(i, j, t);
-  const Vec3 p = 0.5 * (g.sep.point_a + g.sep.point_b);
+  const ContactFrame frame = predictor_.contact_frame(i, j, t, g);
+  const Vec3& p = frame.point;
   const Species &si = bodies_.sp(i), &sj = bodies_.sp(j);
   const Kinematics &ki = bodies_.kin[i], &kj = bodies_.kin[j];
   ContactSide a{1.0 / si.mass, inverse_inertia(si, ki.axis), p - g.center_a, ki.v, ki.precession + ki.spin * ki.axis};
@@ -110,7 +112,7 @@ void Simulation::process_collision(int i, int j, double t) {
     if (law.restitution < 1.0) ++stats_.tc_collisions;
     law.restitution = 1.0;
   }
-  const ContactResult r = solve_contact(a, b, g.sep.normal, law);
+  const ContactResult r = solve_contact(a, b, frame.normal, law);
   apply_impulse(i, -r.impulse, a.arm);
   apply_impulse(j, r.impulse, b.arm);
   if (r.mode == ContactMode::Stick) ++stats_.stick;
@@ -200,6 +202,8 @@ bool Simulation::step() {
       return false;
   }
   ++stats_.events;
+  stats_.ca_steps = predictor_.ca_iterations();
+  stats_.plane_evaluations = predictor_.plane_evaluations();
   if (predictor_.failed()) {
     termination_ = Termination::Error;
     error_ = "conservative advancement did not converge (more than " + std::to_string(Predictor::kMaxSteps) +
