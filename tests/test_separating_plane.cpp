@@ -9,6 +9,7 @@
 #include "core/rng.hpp"
 #include "core/scene.hpp"
 #include "core/separating_plane.hpp"
+#include "core/corotating_plane.hpp"
 
 namespace ringsim {
 namespace {
@@ -105,6 +106,45 @@ TEST(SeparatingPlane, RateBoundIsAnUpperBoundOfTheDerivative) {
     }
   }
   EXPECT_GT(bounded, 400);
+}
+
+TEST(CorotatingPlane, IsALowerBoundAndAdvanceNeverSkipsTheTarget) {
+  SimParams p;
+  const Species L = make_species(Shape::Linker, p);
+  const Species S = make_species(Shape::Sphere, p);
+  Rng rng(9, 0, Stream::Placement);
+  int advanced = 0, checked = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const Kinematics x = random_linker(rng, L, Vec3::Zero());
+    const bool y_sphere = trial % 3 == 0;
+    Kinematics y = random_linker(rng, L, 4.5 * rng.unit_vector());
+    const Species& sy = y_sphere ? S : L;
+    // The direction from X towards Y given by X's feature normal at its
+    // closest point: the radial or axial normal, as the predictor uses it.
+    geom::Separation sep = y_sphere ? geom::sphere_cylinder(y.x, S.radius, cylinder_at(x, L, 0.0))
+                                    : geom::cylinder_cylinder(cylinder_at(x, L, 0.0), cylinder_at(y, L, 0.0));
+    if (sep.distance <= 0.05) continue;
+    Vec3 n0 = y_sphere ? Vec3(-sep.normal) : sep.normal;
+    const CorotatingPlane cp(x, L, y, sy, n0, y.x - x.x, 0.0);
+    const double target = 0.5 * 1e-3, stop = 0.75 * 1e-3;
+    long evals = 0;
+    const double reached = cp.advance(0.0, 3.0, target, stop, &evals, 1000);
+    if (reached > 0.0) ++advanced;
+    for (int m = 0; m <= 400; ++m) {
+      const double t = reached * m / 400.0;
+      // certified: the plane stays above the target up to the time reached
+      EXPECT_GT(cp.at(t), target - 1e-12) << "trial " << trial << " t " << t;
+      // and the plane is a lower bound of the true distance
+      const double d = y_sphere ? geom::sphere_cylinder(position_at(y, t), S.radius, cylinder_at(x, L, t)).distance
+                                : geom::cylinder_cylinder(cylinder_at(x, L, t), cylinder_at(y, L, t)).distance;
+      if (d > 0.0) {
+        EXPECT_LE(cp.at(t), d + 1e-9) << "trial " << trial << " t " << t;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(advanced, 100);
+  EXPECT_GT(checked, 10000);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/motion.hpp"
+#include "core/corotating_plane.hpp"
 #include "core/separating_plane.hpp"
 
 namespace ringsim {
@@ -177,6 +178,35 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
     // contact) aim at half the current gap, so the gap never closes unseen.
     const double gap = std::min(d, delta_);
     const double target = 0.5 * gap, stop = 0.75 * gap;
+    // A contact on a linker's face or side: a plane turning with that linker
+    // (corotating_plane.hpp) converges like Newton's method.
+    {
+      Vec3 candidates[4];
+      int owner[4];
+      const int count = normal_candidates(i, j, s, g, candidates, owner);
+      int pick = -1;
+      double value = -kNever;
+      for (int k = 0; k < count; ++k) {
+        const double v = plane_along(i, j, s, g, candidates[k]).at(s);
+        if (v > value + 1e-12 || (owner[k] != 0 && v > value - 1e-12 && (pick < 0 || owner[pick] == 0))) {
+          value = v;
+          pick = k;
+        }
+      }
+      const int x = owner[pick] == 1 ? i : (owner[pick] == 2 ? j : -1);
+      if (x >= 0 && b_.shape[x] == Shape::Linker && value > stop) {
+        const int y = x == i ? j : i;
+        const Vec3 n0 = x == i ? candidates[pick] : Vec3(-candidates[pick]);
+        const Vec3 dxy = x == i ? Vec3(g.center_b - g.center_a) : Vec3(g.center_a - g.center_b);
+        const CorotatingPlane cp(b_.kin[x], b_.sp(x), b_.kin[y], b_.sp(y), n0, dxy, s);
+        const double reached = cp.advance(s, end, target, stop, &plane_evaluations_, kPlaneBudget);
+        // Worth it only when it beats the plain conservative step.
+        if (reached - s > (d - target) / bound) {
+          s = reached;
+          continue;
+        }
+      }
+    }
     const SeparatingPlane plane = best_plane(i, j, s, g, stop);
     if (plane.at(s) <= stop) {
       // The plane is no tighter than the stop level (n from an iterative
@@ -200,17 +230,18 @@ SeparatingPlane Predictor::plane_along(int i, int j, double t, const ContactGeom
   return plane;
 }
 
-int Predictor::normal_candidates(int i, int j, double t, const ContactGeometry& g, Vec3 out[4]) const {
+int Predictor::normal_candidates(int i, int j, double t, const ContactGeometry& g, Vec3 out[4], int owner[4]) const {
   const Vec3& n = g.sep.normal;
   int count = 0;
+  owner[count] = 0;
   out[count++] = n;
   const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, axis_at(b_.kin[i], t), b_.sp(i));
   const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, axis_at(b_.kin[j], t), b_.sp(j));
-  if (fa.has_normal && fa.normal.dot(n) > 0.0) out[count++] = fa.normal;
-  if (fb.has_normal && -fb.normal.dot(n) > 0.0) out[count++] = -fb.normal;
+  if (fa.has_normal && fa.normal.dot(n) > 0.0) owner[count] = 1, out[count++] = fa.normal;
+  if (fb.has_normal && -fb.normal.dot(n) > 0.0) owner[count] = 2, out[count++] = -fb.normal;
   if (fa.on_rim && fb.on_rim) {
     const Vec3 c = fa.tangent.cross(fb.tangent);
-    if (c.squaredNorm() > 1e-12) out[count++] = c.dot(n) >= 0.0 ? Vec3(c.normalized()) : Vec3(-c.normalized());
+    if (c.squaredNorm() > 1e-12) owner[count] = 0, out[count++] = c.dot(n) >= 0.0 ? Vec3(c.normalized()) : Vec3(-c.normalized());
   }
   return count;
 }
@@ -221,7 +252,8 @@ SeparatingPlane Predictor::best_plane(int i, int j, double t, const ContactGeome
   // The solver's normal is accurate when the gap is not tiny.
   if (value >= 0.5 * g.sep.distance && value > good_enough) return best;
   Vec3 candidates[4];
-  const int count = normal_candidates(i, j, t, g, candidates);
+  int owner[4];
+  const int count = normal_candidates(i, j, t, g, candidates, owner);
   for (int k = 1; k < count; ++k) {
     const SeparatingPlane p = plane_along(i, j, t, g, candidates[k]);
     const double v = p.at(t);
@@ -273,7 +305,8 @@ ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeome
   // The true normal maximises the separation along it (weak duality), so the
   // candidate with the largest plane value is the most accurate one.
   Vec3 candidates[4];
-  const int count = normal_candidates(i, j, t, g, candidates);
+  int owner[4];
+  const int count = normal_candidates(i, j, t, g, candidates, owner);
   Vec3 best = candidates[0];
   double value = plane_along(i, j, t, g, best).at(t);
   for (int k = 1; k < count; ++k) {
@@ -283,11 +316,11 @@ ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeome
       best = candidates[k];
     }
   }
-  ContactFrame f{best, 0.5 * (g.sep.point_a + g.sep.point_b)};
+  ContactFrame frame{best, 0.5 * (g.sep.point_a + g.sep.point_b)};
   // A rim against a lateral surface: make the rim point exact, so that the
   // line of action meets both axes (no spurious torque about either axis).
   const Species &si = b_.sp(i), &sj = b_.sp(j);
-  if (si.shape != Shape::Linker || sj.shape != Shape::Linker) return f;
+  if (si.shape != Shape::Linker || sj.shape != Shape::Linker) return frame;
   const Vec3 ua = axis_at(b_.kin[i], t), ub = axis_at(b_.kin[j], t);
   const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, ua, si);
   const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, ub, sj);
@@ -297,28 +330,28 @@ ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeome
   auto rim_centre = [](const Vec3& p, const Vec3& c, const Vec3& u, const Species& s) {
     return c + ((p - c).dot(u) > 0.0 ? s.half_length : -s.half_length) * u;
   };
-  auto on_face = [](const FeatureNormal& f, const Vec3& u) { return f.has_normal && std::abs(f.normal.dot(u)) > 0.5; };
+  auto on_face = [](const FeatureNormal& fn, const Vec3& u) { return fn.has_normal && std::abs(fn.normal.dot(u)) > 0.5; };
   if (fa.on_rim && on_face(fb, ub)) {
     // Rim against an end face: the face normal is exact; the rim point is the
     // rim's extreme point along it (closed form).
-    f.normal = -fb.normal;
-    f.point = support_point_of(b_.kin[i], si, t, f.normal);
+    frame.normal = -fb.normal;
+    frame.point = support_point_of(b_.kin[i], si, t, frame.normal);
   } else if (fb.on_rim && on_face(fa, ua)) {
-    f.normal = fa.normal;
+    frame.normal = fa.normal;
     // (shifted into the contact's minimum-image frame)
-    f.point = support_point_of(b_.kin[j], sj, t, -f.normal) + (g.center_b - position_at(b_.kin[j], t));
+    frame.point = support_point_of(b_.kin[j], sj, t, -frame.normal) + (g.center_b - position_at(b_.kin[j], t));
   } else if (fa.on_rim && on_side(g.sep.point_b, g.center_b, ub, sj)) {
     const Vec3 P = polish_rim_against_side(g.sep.point_a, rim_centre(g.sep.point_a, g.center_a, ua, si), ua, si.radius,
                                            g.center_b, ub);
-    f.normal = -lateral_normal(P, g.center_b, ub);
-    f.point = P;
+    frame.normal = -lateral_normal(P, g.center_b, ub);
+    frame.point = P;
   } else if (fb.on_rim && on_side(g.sep.point_a, g.center_a, ua, si)) {
     const Vec3 P = polish_rim_against_side(g.sep.point_b, rim_centre(g.sep.point_b, g.center_b, ub, sj), ub, sj.radius,
                                            g.center_a, ua);
-    f.normal = lateral_normal(P, g.center_a, ua);
-    f.point = P;
+    frame.normal = lateral_normal(P, g.center_a, ua);
+    frame.point = P;
   }
-  return f;
+  return frame;
 }
 
 Vec3 Predictor::support_point(int i, double t, const Vec3& n) const {

@@ -101,7 +101,8 @@ class Predictor {
  private:
   double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
   double advance_pair(int i, int j, double t, double limit);
-  int normal_candidates(int i, int j, double t, const ContactGeometry& g, Vec3 out[4]) const;
+  // Candidate normals; owner: 0 solver/rim-rim, 1 a feature normal of i, 2 of j.
+  int normal_candidates(int i, int j, double t, const ContactGeometry& g, Vec3 out[4], int owner[4]) const;
   SeparatingPlane plane_along(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const;
   // The tightest plane bound among the solver's normal and the feature normals.
   SeparatingPlane best_plane(int i, int j, double t, const ContactGeometry& g, double good_enough) const;
