@@ -115,6 +115,15 @@ double Predictor::sphere_sphere(int i, int j, double t, double limit, const Vec3
   return t + dt < limit ? t + dt : kNever;
 }
 
+double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
+  const Vec3 dx = box_.min_image(position_at(b_.kin[j], t) - xi);
+  double enter, leave;
+  if (!sphere_window(dx, b_.kin[j].v - b_.kin[i].v, b_.sp(i).bounding_radius + b_.sp(j).bounding_radius + delta_, &enter,
+                     &leave))
+    return kNever;
+  return t + enter;
+}
+
 double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
   if (b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) return sphere_sphere(i, j, t, limit, xi);
   return advance_pair(i, j, t, limit);
@@ -187,7 +196,7 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
       int pick = -1;
       double value = -kNever;
       for (int k = 0; k < count; ++k) {
-        const double v = plane_along(i, j, s, g, candidates[k]).at(s);
+        const double v = plane_value(i, j, s, g, candidates[k]);
         if (v > value + 1e-12 || (owner[k] != 0 && v > value - 1e-12 && (pick < 0 || owner[pick] == 0))) {
           value = v;
           pick = k;
@@ -218,6 +227,16 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
   }
   failed_ = true;
   return kNever;
+}
+
+double Predictor::plane_value(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const {
+  // The plane's value at t only: supports of the current poses, no tracks.
+  auto support = [&](int b, const Vec3& center, const Vec3& m) {
+    const Species& sp = b_.sp(b);
+    if (sp.shape == Shape::Sphere) return sp.radius;
+    return geom::cylinder_support(geom::Cylinder{center, axis_at(b_.kin[b], t), sp.radius, sp.half_length}, m);
+  };
+  return n.dot(g.center_b - g.center_a) - support(i, g.center_a, n) - support(j, g.center_b, -n);
 }
 
 SeparatingPlane Predictor::plane_along(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const {
@@ -308,9 +327,9 @@ ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeome
   int owner[4];
   const int count = normal_candidates(i, j, t, g, candidates, owner);
   Vec3 best = candidates[0];
-  double value = plane_along(i, j, t, g, best).at(t);
+  double value = plane_value(i, j, t, g, best);
   for (int k = 1; k < count; ++k) {
-    const double v = plane_along(i, j, t, g, candidates[k]).at(t);
+    const double v = plane_value(i, j, t, g, candidates[k]);
     if (v > value) {
       value = v;
       best = candidates[k];

@@ -74,6 +74,9 @@ class Predictor {
   // Earliest contact of i and j in [t, limit); kNever if none. xi is body i's
   // centre at t (hoisted out of the caller's neighbour loop).
   double pair(int i, int j, double t, double limit, const Vec3& xi);
+  // When the bounding spheres of i and j (plus delta) first overlap, from t;
+  // kNever if they never do. No contact can happen before it.
+  double window_enter(int i, int j, double t, const Vec3& xi) const;
   // Earliest wall contact of i in [t, limit) (reflective boxes).
   WallHit wall(int i, double t, double limit);
 
@@ -103,6 +106,7 @@ class Predictor {
   double advance_pair(int i, int j, double t, double limit);
   // Candidate normals; owner: 0 solver/rim-rim, 1 a feature normal of i, 2 of j.
   int normal_candidates(int i, int j, double t, const ContactGeometry& g, Vec3 out[4], int owner[4]) const;
+  double plane_value(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const;
   SeparatingPlane plane_along(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const;
   // The tightest plane bound among the solver's normal and the feature normals.
   SeparatingPlane best_plane(int i, int j, double t, const ContactGeometry& g, double good_enough) const;

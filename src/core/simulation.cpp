@@ -69,16 +69,40 @@ void Simulation::predict(int i, double t) {
       best.dir = static_cast<std::int8_t>(w.dir);
     }
   }
-  grid_.for_each_near(grid_.cell_of_body(i), [&](int j) {
-    if (j == i) return;
-    const double tc = predictor_.pair(i, j, t, best.time, xi);
+  auto consider = [&](int j, double tc) {
     if (tc < best.time) {
       best.time = tc;
       best.type = EventType::Collision;
       best.partner = j;
       best.partner_counter = bodies_.counter[j];
     }
+  };
+  // Closed forms at once; searches (pairs with a linker) later, in order of
+  // their bounding-sphere entry times, so that an early contact cuts the
+  // horizon of the rest before they cost anything.
+  candidates_.clear();
+  const bool sphere_i = bodies_.shape[i] == Shape::Sphere;
+  grid_.for_each_near(grid_.cell_of_body(i), [&](int j) {
+    if (j == i) return;
+    if (sphere_i && bodies_.shape[j] == Shape::Sphere) {
+      consider(j, predictor_.pair(i, j, t, best.time, xi));
+      return;
+    }
+    // j's own pending event may be this very contact, predicted while i
+    // had its present trajectory (i's counter unchanged): it is exact, reuse it.
+    const Event& ej = events_[j];
+    if (ej.type == EventType::Collision && ej.partner == i && ej.partner_counter == bodies_.counter[i]) {
+      consider(j, ej.time);
+      return;
+    }
+    const double enter = predictor_.window_enter(i, j, t, xi);
+    if (enter < best.time) candidates_.push_back({enter, j});
   });
+  std::sort(candidates_.begin(), candidates_.end());
+  for (const auto& [enter, j] : candidates_) {
+    if (enter >= best.time) break;
+    consider(j, predictor_.pair(i, j, t, best.time, xi));
+  }
   events_[i] = best;
   queue_->update(i, best.time);
 }

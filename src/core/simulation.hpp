@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/body.hpp"
@@ -103,6 +104,7 @@ class Simulation {
   std::unique_ptr<EventQueue> queue_;
   Predictor predictor_;
   std::vector<Event> events_;
+  std::vector<std::pair<double, int>> candidates_;  // scratch of predict()
   double now_ = 0.0;
   RunStats stats_;
   Termination termination_ = Termination::Running;
