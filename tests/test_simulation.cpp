@@ -102,6 +102,19 @@ TEST(Validation, PeriodicFrictionalInelasticRunKeepsMomentumAndNoOverlap) {
   EXPECT_GT(sim.stats().stick + sim.stats().slide, 100);
 }
 
+TEST(Regression, GrazingWallContactOfALinkerDoesNotStall) {
+  // Seed 1001 of the default scene once froze at t = 442.7643: a linker in
+  // the contact band (gap 3e-15) whose single support point looked separating
+  // while the exact gap was closing, with certified steps below one ulp of t.
+  SimParams p;
+  p.run.t_max = 1e12;
+  p.run.max_events = 160000;
+  Simulation sim(p, build_scene(p, 1001, 0, nullptr));
+  EXPECT_EQ(sim.run(), Termination::EventBudget);
+  EXPECT_GT(sim.time(), 442.8);
+  EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
+}
+
 TEST(InelasticCollapse, DenseGasWithRestitutionPointThreeFinishes) {
   // Packing 0.31, e = 0.3: without a remedy the cooling gas clusters and
   // collapses (infinitely many collisions in finite time; measured without

@@ -11,6 +11,7 @@ namespace ringsim {
 
 namespace {
 
+
 // Plane evaluations before a fresh exact distance and normal are fetched.
 // Measured on the periodic 600-body box (docs/PERFORMANCE.md): 3 -> 4.9k,
 // 6 -> 5.1k, 16 -> 3.8k, 32 -> 3.6k collisions/s (median of three seeds).
@@ -179,8 +180,8 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
     const double d = g.sep.distance;
     if (d <= delta_ && approach_rate(i, j, s, g) < 0.0) return s;
     if (d <= 0.0) {
-      // Touching within rounding and separating: creep (cannot close a gap).
-      s += 1e-3 * delta_ / bound;
+      // Touching within rounding and separating: creep by the minimum step.
+      s += min_step(bound);
       continue;
     }
     // Outside the contact band aim at delta/2; inside it (separating after a
@@ -220,10 +221,10 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
     if (plane.at(s) <= stop) {
       // The plane is no tighter than the stop level (n from an iterative
       // solver, or a corner case): take the plain conservative step.
-      s += (d - target) / bound;
+      s += std::max((d - target) / bound, min_step(bound));
       continue;
     }
-    s = advance_plane(plane, s, end, target, stop, bound, &plane_evaluations_, kPlaneBudget);
+    s = std::max(s + min_step(bound), advance_plane(plane, s, end, target, stop, bound, &plane_evaluations_, kPlaneBudget));
   }
   failed_ = true;
   return kNever;
@@ -373,6 +374,42 @@ ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeome
   return frame;
 }
 
+double Predictor::wall_contact(int i, double t, const Vec3& n, Vec3* point) const {
+  // Where the solid touches the wall plane the support set along n may be a
+  // point, a segment (a side lying parallel to the wall: both ends) or a disc
+  // (an end face parallel to it: its rim). Every candidate within delta of the
+  // support plane is a contact point; the one approaching fastest is used, by
+  // prediction and response alike, so the impulse is always repulsive.
+  const Kinematics& k = b_.kin[i];
+  const Species& s = b_.sp(i);
+  const Vec3 c = position_at(k, t);
+  const Vec3 p0 = support_point_of(k, s, t, n);
+  double best_rate = n.dot(surface_velocity(k, t, p0, c));
+  Vec3 best = p0;
+  if (s.shape == Shape::Linker) {
+    const Vec3 u = axis_at(k, t);
+    const double level = n.dot(p0);
+    auto consider = [&](const Vec3& p) {
+      if (level - n.dot(p) > delta_) return;  // not touching
+      const double rate = n.dot(surface_velocity(k, t, p, c));
+      if (rate > best_rate) {
+        best_rate = rate;
+        best = p;
+      }
+    };
+    const double un = u.dot(n);
+    consider(p0 - (un >= 0.0 ? 2.0 : -2.0) * s.half_length * u);  // other end of a parallel side line
+    const Vec3 face = c + (un >= 0.0 ? s.half_length : -s.half_length) * u;
+    const Vec3 e1 = (std::abs(u.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(u).normalized(), e2 = u.cross(e1);
+    for (int m = 0; m < 16; ++m) {  // rim of a face parallel to the wall
+      const double a = 2.0 * M_PI * m / 16.0;
+      consider(face + s.radius * (std::cos(a) * e1 + std::sin(a) * e2));
+    }
+  }
+  if (point) *point = best;
+  return -best_rate;  // rate of change of the gap at that point (negative: approaching)
+}
+
 Vec3 Predictor::support_point(int i, double t, const Vec3& n) const {
   return support_point_of(b_.kin[i], b_.sp(i), t, n);
 }
@@ -424,22 +461,23 @@ WallHit Predictor::wall(int i, double t, double limit) {
         plane.slope = rate_c;
         plane.a = SupportTrack::of(k, s, n, sc);
         plane.b = SupportTrack::constant(0.0);
+        const double step_floor = min_step(bound);
         for (int step = 0; step < kMaxSteps && sc < end; ++step) {
           ++ca_iterations_;
           const double g = plane.at(sc);
           if (g <= delta_) {
-            const Vec3 p = support_point_of(k, s, sc, n);
-            if (dir * surface_velocity(k, sc, p, position_at(k, sc))[d] > 0.0) {
+            if (wall_contact(i, sc, n, nullptr) < 0.0) {
               best = {sc, d, dir};
               break;
             }
           }
           const double gap = std::min(g, delta_);
           if (gap <= 0.0) {
-            sc += 1e-3 * delta_ / bound;
+            sc += step_floor;
             continue;
           }
-          sc = advance_plane(plane, sc, end, 0.5 * gap, 0.75 * gap, bound, &plane_evaluations_, 1 << 30);
+          sc = std::max(sc + step_floor,
+                        advance_plane(plane, sc, end, 0.5 * gap, 0.75 * gap, bound, &plane_evaluations_, 1 << 30));
           if (step + 1 == kMaxSteps) failed_ = true;
         }
       }

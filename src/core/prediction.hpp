@@ -91,6 +91,10 @@ class Predictor {
   // Rate of change of the gap at the contact (negative: approaching).
   double approach_rate(int i, int j, double t, const ContactGeometry& g) const;
 
+  // Contact with a wall of outward normal n (from the body to the wall): the
+  // touching point that approaches fastest (optional) and the gap's rate of
+  // change there (negative: approaching).
+  double wall_contact(int i, double t, const Vec3& n, Vec3* point) const;
   // Support point of body i at time t along unit direction n.
   Vec3 support_point(int i, double t, const Vec3& n) const;
 
@@ -102,6 +106,10 @@ class Predictor {
   static constexpr int kMaxSteps = 10'000'000;
 
  private:
+  // Smallest step of a search: delta / (100 B). It keeps time representable
+  // (a certified step can fall below one ulp of t inside the contact band)
+  // and lets a gap close by at most delta / 100 before a contact fires.
+  double min_step(double bound) const { return delta_ / (100.0 * bound); }
   double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
   double advance_pair(int i, int j, double t, double limit);
   // Candidate normals; owner: 0 solver/rim-rim, 1 a feature normal of i, 2 of j.

@@ -155,7 +155,8 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
   const Species& s = bodies_.sp(i);
   Vec3 n = Vec3::Zero();
   n[ev.dim] = ev.dir;  // from the body towards the wall
-  const Vec3 p = predictor_.support_point(i, t, n);
+  Vec3 p;
+  predictor_.wall_contact(i, t, n, &p);
   ContactSide body{1.0 / s.mass, inverse_inertia(s, k.axis), p - k.x, k.v, k.precession + k.spin * k.axis};
   ContactSide wall{0.0, Mat3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
   const ContactParams& cp = params_.contact;
