@@ -37,7 +37,9 @@ Separation sphere_cylinder(const Vec3& center, double radius, const Cylinder& cy
 // Uses cylinder_cylinder_features (certified to ~1e-12, ~0.5 us); if its
 // duality gap exceeds max(tolerance, 1e-9) -- in practice only overlapping
 // pairs it cannot certify -- the answer comes from cylinder_cylinder_fcl.
-Separation cylinder_cylinder(const Cylinder& a, const Cylinder& b, double tolerance = 1e-10);
+// *certified (optional): false when neither the feature solver (both argument
+// orders) could prove its result and FCL's answer was returned instead.
+Separation cylinder_cylinder(const Cylinder& a, const Cylinder& b, double tolerance = 1e-10, bool* certified = nullptr);
 
 // The two cylinder-cylinder solvers behind cylinder_cylinder(), exposed so
 // tests and benchmarks can compare them.

@@ -151,7 +151,8 @@ ContactGeometry Predictor::contact_geometry(int i, int j, double t) const {
     g.sep = geom::Separation{s.distance, s.point_b, s.point_a, -s.normal};
   } else {
     g.sep = geom::cylinder_cylinder(geom::Cylinder{g.center_a, axis_at(ki, t), si.radius, si.half_length},
-                                    geom::Cylinder{g.center_b, axis_at(kj, t), sj.radius, sj.half_length});
+                                    geom::Cylinder{g.center_b, axis_at(kj, t), sj.radius, sj.half_length}, 1e-10,
+                                    &g.certified);
   }
   return g;
 }
@@ -221,7 +222,10 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
     if (plane.at(s) <= stop) {
       // The plane is no tighter than the stop level (n from an iterative
       // solver, or a corner case): take the plain conservative step.
-      s += std::max((d - target) / bound, min_step(bound));
+      // Step from a proven lower bound only: an unproven distance may be too
+      // large (FCL's GJK near contact), and stepping by it could pass a contact.
+      const double proven = g.certified ? d : plane.at(s);
+      s += std::max((proven - target) / bound, min_step(bound));
       continue;
     }
     s = std::max(s + min_step(bound), advance_plane(plane, s, end, target, stop, bound, &plane_evaluations_, kPlaneBudget));

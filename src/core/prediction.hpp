@@ -53,6 +53,7 @@ struct ContactGeometry {
   geom::Separation sep;  // A = body a, B = body b
   Vec3 center_a;
   Vec3 center_b;         // minimum image relative to center_a
+  bool certified = true; // distance proven by the solver (else: FCL's estimate)
 };
 
 struct ContactFrame {
