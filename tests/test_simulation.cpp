@@ -115,19 +115,25 @@ TEST(Regression, GrazingWallContactOfALinkerDoesNotStall) {
   EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
 }
 
-TEST(InelasticCollapse, DenseGasWithRestitutionPointThreeFinishes) {
-  // Packing 0.31, e = 0.3: without a remedy the cooling gas clusters and
-  // collapses (infinitely many collisions in finite time; measured without
-  // the TC model at t = 966, 189, 105 for seeds 2, 3, 4). The TC model keeps
-  // the collision count finite; the guard below is a generous budget.
+// Packing 0.31, e = 0.3: without a remedy the cooling gas clusters and
+// collapses (infinitely many collisions in finite time; measured without the
+// TC model at t = 966, 189, 105 for seeds 2, 3, 4).
+SimParams collapsing_gas(double tc_time, std::int64_t event_budget) {
   SimParams p;
   p.geometry.boundary = Boundary::Periodic;
   p.init.linkers = 0;
   p.init.spheres = 2000;
   p.geometry.box_length = 30.0;
   p.contact.restitution_sphere = 0.3;
+  p.run.tc_time = tc_time;
   p.run.t_max = 20000.0;
-  p.run.max_events = 20'000'000;
+  p.run.max_events = event_budget;
+  return p;
+}
+
+TEST(InelasticCollapse, DenseGasWithRestitutionPointThreeFinishes) {
+  // The TC model keeps the collision count finite; the budget is a generous guard.
+  const SimParams p = collapsing_gas(1e-7, 20'000'000);
   Simulation sim(p, build_scene(p, 3, 0, nullptr));
   EXPECT_EQ(sim.run(), Termination::TimeLimit);
   EXPECT_GT(sim.stats().tc_collisions, 0);
@@ -135,17 +141,9 @@ TEST(InelasticCollapse, DenseGasWithRestitutionPointThreeFinishes) {
 }
 
 TEST(InelasticCollapse, WithoutTcModelTheEventRateExplodes) {
-  // The same gas without the TC model spends its whole event budget in a
-  // short time: the collapse the remedy is for.
-  SimParams p;
-  p.geometry.boundary = Boundary::Periodic;
-  p.init.linkers = 0;
-  p.init.spheres = 2000;
-  p.geometry.box_length = 30.0;
-  p.contact.restitution_sphere = 0.3;
-  p.run.tc_time = 0.0;
-  p.run.t_max = 20000.0;
-  p.run.max_events = 2'000'000;
+  // The same gas without the TC model spends its whole event budget early:
+  // the collapse the remedy is for.
+  const SimParams p = collapsing_gas(0.0, 2'000'000);
   Simulation sim(p, build_scene(p, 3, 0, nullptr));
   EXPECT_EQ(sim.run(), Termination::EventBudget);
   EXPECT_LT(sim.time(), 1000.0);
