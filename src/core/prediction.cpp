@@ -189,25 +189,14 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
     // contact) aim at half the current gap, so the gap never closes unseen.
     const double gap = std::min(d, delta_);
     const double target = 0.5 * gap, stop = 0.75 * gap;
+    const RankedNormals r = rank_normals(i, j, s, g);
     // A contact on a linker's face or side: a plane turning with that linker
     // (corotating_plane.hpp) converges like Newton's method.
-    {
-      Vec3 candidates[4];
-      int owner[4];
-      const int count = normal_candidates(i, j, s, g, candidates, owner);
-      int pick = -1;
-      double value = -kNever;
-      for (int k = 0; k < count; ++k) {
-        const double v = plane_value(i, j, s, g, candidates[k]);
-        if (v > value + 1e-12 || (owner[k] != 0 && v > value - 1e-12 && (pick < 0 || owner[pick] == 0))) {
-          value = v;
-          pick = k;
-        }
-      }
-      const int x = owner[pick] == 1 ? i : (owner[pick] == 2 ? j : -1);
-      if (x >= 0 && b_.shape[x] == Shape::Linker && value > stop) {
+    if (r.feature >= 0 && r.value[r.feature] >= r.value[r.best] - 1e-12 && r.value[r.feature] > stop) {
+      const int x = r.owner[r.feature] == 1 ? i : j;
+      if (b_.shape[x] == Shape::Linker) {
         const int y = x == i ? j : i;
-        const Vec3 n0 = x == i ? candidates[pick] : Vec3(-candidates[pick]);
+        const Vec3 n0 = x == i ? r.normal[r.feature] : Vec3(-r.normal[r.feature]);
         const Vec3 dxy = x == i ? Vec3(g.center_b - g.center_a) : Vec3(g.center_a - g.center_b);
         const CorotatingPlane cp(b_.kin[x], b_.sp(x), b_.kin[y], b_.sp(y), n0, dxy, s);
         const double reached = cp.advance(s, end, target, stop, &plane_evaluations_, kPlaneBudget);
@@ -218,16 +207,15 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
         }
       }
     }
-    const SeparatingPlane plane = best_plane(i, j, s, g, stop);
-    if (plane.at(s) <= stop) {
-      // The plane is no tighter than the stop level (n from an iterative
-      // solver, or a corner case): take the plain conservative step.
-      // Step from a proven lower bound only: an unproven distance may be too
+    if (r.value[r.best] <= stop) {
+      // No plane is tighter than the stop level: take the plain conservative
+      // step, from a proven lower bound only: an unproven distance may be too
       // large (FCL's GJK near contact), and stepping by it could pass a contact.
-      const double proven = g.certified ? d : plane.at(s);
+      const double proven = g.certified ? d : r.value[r.best];
       s += std::max((proven - target) / bound, min_step(bound));
       continue;
     }
+    const SeparatingPlane plane = plane_along(i, j, s, g, r.normal[r.best]);
     s = std::max(s + min_step(bound), advance_plane(plane, s, end, target, stop, bound, &plane_evaluations_, kPlaneBudget));
   }
   failed_ = true;
@@ -254,39 +242,27 @@ SeparatingPlane Predictor::plane_along(int i, int j, double t, const ContactGeom
   return plane;
 }
 
-int Predictor::normal_candidates(int i, int j, double t, const ContactGeometry& g, Vec3 out[4], int owner[4]) const {
+Predictor::RankedNormals Predictor::rank_normals(int i, int j, double t, const ContactGeometry& g) const {
+  RankedNormals r;
   const Vec3& n = g.sep.normal;
-  int count = 0;
-  owner[count] = 0;
-  out[count++] = n;
+  auto add = [&](const Vec3& v, int owner) {
+    r.normal[r.count] = v;
+    r.owner[r.count] = owner;
+    r.value[r.count] = plane_value(i, j, t, g, v);
+    if (r.value[r.count] > r.value[r.best]) r.best = r.count;
+    if (owner != 0 && (r.feature < 0 || r.value[r.count] > r.value[r.feature])) r.feature = r.count;
+    ++r.count;
+  };
+  add(n, 0);
   const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, axis_at(b_.kin[i], t), b_.sp(i));
   const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, axis_at(b_.kin[j], t), b_.sp(j));
-  if (fa.has_normal && fa.normal.dot(n) > 0.0) owner[count] = 1, out[count++] = fa.normal;
-  if (fb.has_normal && -fb.normal.dot(n) > 0.0) owner[count] = 2, out[count++] = -fb.normal;
+  if (fa.has_normal && fa.normal.dot(n) > 0.0) add(fa.normal, 1);
+  if (fb.has_normal && -fb.normal.dot(n) > 0.0) add(-fb.normal, 2);
   if (fa.on_rim && fb.on_rim) {
     const Vec3 c = fa.tangent.cross(fb.tangent);
-    if (c.squaredNorm() > 1e-12) owner[count] = 0, out[count++] = c.dot(n) >= 0.0 ? Vec3(c.normalized()) : Vec3(-c.normalized());
+    if (c.squaredNorm() > 1e-12) add(c.dot(n) >= 0.0 ? Vec3(c.normalized()) : Vec3(-c.normalized()), 0);
   }
-  return count;
-}
-
-SeparatingPlane Predictor::best_plane(int i, int j, double t, const ContactGeometry& g, double good_enough) const {
-  SeparatingPlane best = plane_along(i, j, t, g, g.sep.normal);
-  double value = best.at(t);
-  // The solver's normal is accurate when the gap is not tiny.
-  if (value >= 0.5 * g.sep.distance && value > good_enough) return best;
-  Vec3 candidates[4];
-  int owner[4];
-  const int count = normal_candidates(i, j, t, g, candidates, owner);
-  for (int k = 1; k < count; ++k) {
-    const SeparatingPlane p = plane_along(i, j, t, g, candidates[k]);
-    const double v = p.at(t);
-    if (v > value) {
-      value = v;
-      best = p;
-    }
-  }
-  return best;
+  return r;
 }
 
 namespace {
@@ -325,26 +301,44 @@ Vec3 polish_rim_against_side(const Vec3& P0, const Vec3& C, const Vec3& u, doubl
 
 }  // namespace
 
+ContactFrame Predictor::on_axis_planes(int i, int j, double t, const ContactGeometry& g, ContactFrame frame) const {
+  // A smooth contact's line of action must meet each cylinder's axis (every
+  // normal of a cylinder of revolution lies in a plane through its axis), or
+  // the impulse turns the linker about its own axis. At gaps ~1e-9 the
+  // midpoint of two closest points can sit ~1e-10 off those planes, which
+  // changed spins by ~5e-9 (rim-rim contacts). Move the point, by about the
+  // gap, onto the plane spanned by the normal and each linker's axis: solve
+  //   m_A.(p + a m_A + b m_B - x_A) = 0,  m_B.(p + a m_A + b m_B - x_B) = 0,
+  // m = n x u / |n x u| (a face contact, n || u, needs no correction).
+  auto plane_normal = [&](int b, const Vec3& center, double* offset) {
+    if (b_.sp(b).shape != Shape::Linker) return Vec3(Vec3::Zero());
+    const Vec3 m = frame.normal.cross(axis_at(b_.kin[b], t));
+    const double len = m.norm();
+    if (len < 1e-6) return Vec3(Vec3::Zero());
+    *offset = (m / len).dot(frame.point - center);
+    return Vec3(m / len);
+  };
+  double ra = 0.0, rb = 0.0;
+  const Vec3 ma = plane_normal(i, g.center_a, &ra), mb = plane_normal(j, g.center_b, &rb);
+  const double c = ma.dot(mb), det = 1.0 - c * c;
+  if (det > 1e-12) {
+    frame.point += ((-ra + c * rb) / det) * ma + ((-rb + c * ra) / det) * mb;
+  } else {
+    frame.point -= ra * ma + (ma.squaredNorm() == 0.0 ? rb * mb : Vec3(Vec3::Zero()));
+  }
+  return frame;
+}
+
 ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeometry& g) const {
   // The true normal maximises the separation along it (weak duality), so the
   // candidate with the largest plane value is the most accurate one.
-  Vec3 candidates[4];
-  int owner[4];
-  const int count = normal_candidates(i, j, t, g, candidates, owner);
-  Vec3 best = candidates[0];
-  double value = plane_value(i, j, t, g, best);
-  for (int k = 1; k < count; ++k) {
-    const double v = plane_value(i, j, t, g, candidates[k]);
-    if (v > value) {
-      value = v;
-      best = candidates[k];
-    }
-  }
+  const RankedNormals r = rank_normals(i, j, t, g);
+  const Vec3& best = r.normal[r.best];
   ContactFrame frame{best, 0.5 * (g.sep.point_a + g.sep.point_b)};
   // A rim against a lateral surface: make the rim point exact, so that the
   // line of action meets both axes (no spurious torque about either axis).
   const Species &si = b_.sp(i), &sj = b_.sp(j);
-  if (si.shape != Shape::Linker || sj.shape != Shape::Linker) return frame;
+  if (si.shape != Shape::Linker || sj.shape != Shape::Linker) return on_axis_planes(i, j, t, g, frame);
   const Vec3 ua = axis_at(b_.kin[i], t), ub = axis_at(b_.kin[j], t);
   const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, ua, si);
   const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, ub, sj);
@@ -375,7 +369,7 @@ ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeome
     frame.normal = lateral_normal(P, g.center_a, ua);
     frame.point = P;
   }
-  return frame;
+  return on_axis_planes(i, j, t, g, frame);
 }
 
 double Predictor::wall_contact(int i, double t, const Vec3& n, Vec3* point) const {
@@ -414,9 +408,6 @@ double Predictor::wall_contact(int i, double t, const Vec3& n, Vec3* point) cons
   return -best_rate;  // rate of change of the gap at that point (negative: approaching)
 }
 
-Vec3 Predictor::support_point(int i, double t, const Vec3& n) const {
-  return support_point_of(b_.kin[i], b_.sp(i), t, n);
-}
 
 WallHit Predictor::wall(int i, double t, double limit) {
   const Kinematics& k = b_.kin[i];

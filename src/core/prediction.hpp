@@ -96,8 +96,6 @@ class Predictor {
   // touching point that approaches fastest (optional) and the gap's rate of
   // change there (negative: approaching).
   double wall_contact(int i, double t, const Vec3& n, Vec3* point) const;
-  // Support point of body i at time t along unit direction n.
-  Vec3 support_point(int i, double t, const Vec3& n) const;
 
   std::uint64_t ca_iterations() const { return ca_iterations_; }
   long plane_evaluations() const { return plane_evaluations_; }
@@ -113,12 +111,20 @@ class Predictor {
   double min_step(double bound) const { return delta_ / (100.0 * bound); }
   double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
   double advance_pair(int i, int j, double t, double limit);
-  // Candidate normals; owner: 0 solver/rim-rim, 1 a feature normal of i, 2 of j.
-  int normal_candidates(int i, int j, double t, const ContactGeometry& g, Vec3 out[4], int owner[4]) const;
+  // Candidate normals at a contact geometry, with their plane values: the
+  // solver's normal, the feature normals of i (owner 1) and of j (owner 2), the
+  // rim-tangent cross product (owner 0). best: the largest value; feature: the
+  // largest among the feature normals (-1 if none).
+  struct RankedNormals {
+    Vec3 normal[4];
+    int owner[4];
+    double value[4];
+    int count = 0, best = 0, feature = -1;
+  };
+  ContactFrame on_axis_planes(int i, int j, double t, const ContactGeometry& g, ContactFrame frame) const;
+  RankedNormals rank_normals(int i, int j, double t, const ContactGeometry& g) const;
   double plane_value(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const;
   SeparatingPlane plane_along(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const;
-  // The tightest plane bound among the solver's normal and the feature normals.
-  SeparatingPlane best_plane(int i, int j, double t, const ContactGeometry& g, double good_enough) const;
 
   const BodyStore& b_;
   Box box_;
