@@ -29,8 +29,8 @@ Mat3 inverse_inertia(const Species& s, const Vec3& u) {
 }
 
 Vec3 angular_momentum(const Kinematics& k, const Species& s) {
-  if (s.shape == Shape::Sphere) return s.i_perp * k.precession;
-  // L = I_perp * Omega by construction of the precession vector.
+  // L = I_perp * Omega by construction of the precession vector (spheres:
+  // precession is omega and I_perp the moment).
   return s.i_perp * k.precession;
 }
 

@@ -290,8 +290,7 @@ double mixing_fraction(const BodyStore& b, double box_length, bool periodic) {
           for (int d = -shell; d <= shell; ++d) {
             if (std::max({std::abs(a), std::abs(c), std::abs(d)}) != shell) continue;
             int ia = c0[0] + a, ic = c0[1] + c, id = c0[2] + d;
-            if (periodic) {
-              if (2 * shell + 1 > m) { /* wrapped shells revisit cells: harmless for a minimum */ }
+            if (periodic) {  // wrapped shells may revisit cells: harmless for a minimum
               ia = ((ia % m) + m) % m; ic = ((ic % m) + m) % m; id = ((id % m) + m) % m;
             } else if (ia < 0 || ic < 0 || id < 0 || ia >= m || ic >= m || id >= m) {
               continue;

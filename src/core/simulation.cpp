@@ -190,6 +190,9 @@ void Simulation::process_cell(int i, const Event& ev, double t) {
 }
 
 bool Simulation::step() {
+  // Search counters up to now (also the work of stale re-predictions).
+  stats_.ca_steps = predictor_.ca_iterations();
+  stats_.plane_evaluations = predictor_.plane_evaluations();
   if (termination_ != Termination::Running) return false;
   const int i = queue_->top();
   const Event ev = events_[i];
@@ -227,8 +230,6 @@ bool Simulation::step() {
       return false;
   }
   ++stats_.events;
-  stats_.ca_steps = predictor_.ca_iterations();
-  stats_.plane_evaluations = predictor_.plane_evaluations();
   if (predictor_.failed()) {
     termination_ = Termination::Error;
     error_ = "conservative advancement did not converge (more than " + std::to_string(Predictor::kMaxSteps) +
@@ -242,8 +243,6 @@ bool Simulation::step() {
 Termination Simulation::run() {
   while (step()) {
   }
-  stats_.ca_steps = predictor_.ca_iterations();
-  stats_.plane_evaluations = predictor_.plane_evaluations();
   if (termination_ != Termination::Error) synchronize(now_);
   return termination_;
 }
