@@ -37,8 +37,9 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   const int n = bodies_.size();
   const double range = interaction_range(bodies_) + 2.0 * params.run.contact_tolerance;
   if (box_.periodic && 2.0 * range >= box_.length)
-    throw std::invalid_argument("periodic box too small for the minimum-image convention: geometry.box_length must exceed " +
-                                std::to_string(2.0 * range));
+    throw std::invalid_argument("geometry.box_length = " + std::to_string(box_.length) + ": must be > " +
+                                std::to_string(2.0 * range) +
+                                " with geometry.boundary = periodic (twice the interaction range, minimum image)");
   const double cell = std::max(range, params.run.cell_size);
   grid_ = CellGrid(box_.length, cell, n, box_.periodic);
   events_.assign(n, Event{});

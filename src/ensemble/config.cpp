@@ -621,11 +621,20 @@ void check_cross(const SimParams& p, const Origins& origins, Problems& problems)
     which = "linker bounding radius sqrt(geometry.linker_radius^2 + (geometry.linker_length/2)^2) = " +
             format_real(r_linker);
   }
+  // A periodic box must exceed twice the interaction range (2 R_max plus the
+  // contact band 2 delta) for the minimum-image convention to hold.
+  const double periodic_min = 2.0 * (2.0 * r_max + 2.0 * p.run.contact_tolerance);
   if (!(p.geometry.box_length > 2.0 * r_max)) {
     problems.add(2, 0, 0,
                  origin(origins, "geometry.box_length") + "geometry.box_length = " +
                      format_real(p.geometry.box_length) + ": must be > 2 x the largest body bounding radius = " +
                      format_real(2.0 * r_max) + " (" + which + ")");
+  } else if (p.geometry.boundary == Boundary::Periodic && !(p.geometry.box_length > periodic_min)) {
+    problems.add(2, 0, 0,
+                 origin(origins, "geometry.box_length") + "geometry.box_length = " +
+                     format_real(p.geometry.box_length) + ": must be > " + format_real(periodic_min) +
+                     " with geometry.boundary = periodic (twice the interaction range 2 x (2 x " + which +
+                     " + 2 x run.contact_tolerance), for the minimum-image convention)");
   }
 }
 
