@@ -4,8 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <string>
@@ -43,7 +45,21 @@ void expect_same(const SimParams& a, const SimParams& b) {
   EXPECT_EQ(a.init.omega_max, b.init.omega_max);
   EXPECT_EQ(a.init.temperature, b.init.temperature);
   EXPECT_EQ(a.bonding.enabled, b.bonding.enabled);
+  EXPECT_EQ(a.bonding.capture_distance, b.bonding.capture_distance);
+  EXPECT_EQ(a.bonding.sphere_valency, b.bonding.sphere_valency);
+  EXPECT_EQ(a.bonding.end_valency, b.bonding.end_valency);
+  EXPECT_EQ(a.bonding.angle_filter, b.bonding.angle_filter);
+  EXPECT_EQ(a.bonding.theta0_deg, b.bonding.theta0_deg);
+  EXPECT_EQ(a.bonding.dtheta_deg, b.bonding.dtheta_deg);
+  EXPECT_EQ(a.bonding.coplanarity_filter, b.bonding.coplanarity_filter);
+  EXPECT_EQ(a.bonding.dphi_deg, b.bonding.dphi_deg);
+  EXPECT_EQ(a.bonding.coplanarity_mode, b.bonding.coplanarity_mode);
   EXPECT_EQ(a.run.t_max, b.run.t_max);
+  EXPECT_EQ(a.run.steady_state, b.run.steady_state);
+  EXPECT_EQ(a.run.sample_interval, b.run.sample_interval);
+  EXPECT_EQ(a.run.mser_batch, b.run.mser_batch);
+  EXPECT_EQ(a.run.mser_min_samples, b.run.mser_min_samples);
+  EXPECT_EQ(a.run.mser_check_every, b.run.mser_check_every);
   EXPECT_EQ(a.run.max_events, b.run.max_events);
   EXPECT_EQ(a.run.contact_tolerance, b.run.contact_tolerance);
   EXPECT_EQ(a.run.tc_time, b.run.tc_time);
@@ -76,6 +92,8 @@ TEST(Config, ToStringNames) {
   EXPECT_STREQ(to_string(VelocityInit::Thermal), "thermal");
   EXPECT_STREQ(to_string(QueueKind::Fast), "fast");
   EXPECT_STREQ(to_string(QueueKind::Reference), "reference");
+  EXPECT_STREQ(to_string(CoplanarityMode::CisOrTrans), "cis-or-trans");
+  EXPECT_STREQ(to_string(CoplanarityMode::Cis), "cis");
 }
 
 TEST(Config, EmptyTextGivesStudyDefaults) {
@@ -91,6 +109,23 @@ TEST(Config, EmptyTextGivesStudyDefaults) {
   EXPECT_EQ(p.init.spheres, 300);
   EXPECT_EQ(p.init.linkers, 300);
   EXPECT_EQ(p.run.t_max, 5000.0);
+  // Bonding: the study's Scenario 4 (= 6-2), MODEL.md "Capture and bond formation".
+  EXPECT_TRUE(p.bonding.enabled);
+  EXPECT_EQ(p.bonding.capture_distance, 0.1);
+  EXPECT_EQ(p.bonding.sphere_valency, 2);
+  EXPECT_EQ(p.bonding.end_valency, 1);
+  EXPECT_TRUE(p.bonding.angle_filter);
+  EXPECT_EQ(p.bonding.theta0_deg, 90.0);
+  EXPECT_EQ(p.bonding.dtheta_deg, 5.0);
+  EXPECT_TRUE(p.bonding.coplanarity_filter);
+  EXPECT_EQ(p.bonding.dphi_deg, 5.0);
+  EXPECT_EQ(p.bonding.coplanarity_mode, CoplanarityMode::CisOrTrans);
+  // Steady state: MSER-5 (MODEL.md "Protocol").
+  EXPECT_TRUE(p.run.steady_state);
+  EXPECT_EQ(p.run.sample_interval, 1.0);
+  EXPECT_EQ(p.run.mser_batch, 5);
+  EXPECT_EQ(p.run.mser_min_samples, 200);
+  EXPECT_EQ(p.run.mser_check_every, 50);
   EXPECT_NO_THROW(validate(p));
 }
 
@@ -245,6 +280,24 @@ TEST(Config, RangeErrorsNameKeyValueAndRange) {
       {"[contact]\nfriction_rule = \"Min\"", "contact.friction_rule = \"Min\": must be one of min, max, product, mean"},
       {"[init]\nvelocity = \"gaussian\"", "init.velocity = \"gaussian\": must be one of uniform, thermal"},
       {"[run]\nqueue = \"slow\"", "run.queue = \"slow\": must be one of fast, reference"},
+      {"[bonding]\ncapture_distance = 0", "bonding.capture_distance = 0: must be > 0"},
+      {"[bonding]\ncapture_distance = -0.1", "bonding.capture_distance = -0.1: must be > 0"},
+      {"[bonding]\nsphere_valency = -1", "bonding.sphere_valency = -1: must be an integer >= 0"},
+      {"[bonding]\nend_valency = 2", "bonding.end_valency = 2: must be an integer in [0, 1]"},
+      {"[bonding]\nend_valency = -1", "bonding.end_valency = -1: must be an integer in [0, 1]"},
+      {"[bonding]\ntheta0_deg = 180.5", "bonding.theta0_deg = 180.5: must be in [0, 180]"},
+      {"[bonding]\ntheta0_deg = -1", "bonding.theta0_deg = -1: must be in [0, 180]"},
+      {"[bonding]\ndtheta_deg = 181", "bonding.dtheta_deg = 181: must be in [0, 180]"},
+      {"[bonding]\ndtheta_deg = -0.5", "bonding.dtheta_deg = -0.5: must be in [0, 180]"},
+      {"[bonding]\ndphi_deg = 90.01", "bonding.dphi_deg = 90.01: must be in [0, 90]"},
+      {"[bonding]\ndphi_deg = -5", "bonding.dphi_deg = -5: must be in [0, 90]"},
+      {"[bonding]\ncoplanarity_mode = \"trans\"",
+       "bonding.coplanarity_mode = \"trans\": must be one of cis-or-trans, cis"},
+      {"[run]\nsample_interval = 0", "run.sample_interval = 0: must be > 0"},
+      {"[run]\nsample_interval = nan", "run.sample_interval = nan: must be a finite number > 0"},
+      {"[run]\nmser_batch = 0", "run.mser_batch = 0: must be an integer >= 1"},
+      {"[run]\nmser_min_samples = 1", "run.mser_min_samples = 1: must be an integer >= 2"},
+      {"[run]\nmser_check_every = 0", "run.mser_check_every = 0: must be an integer >= 1"},
   };
   for (const Case& c : cases) {
     const std::string e = error_of(c.text);
@@ -256,6 +309,11 @@ TEST(Config, RangeErrorsNameKeyValueAndRange) {
                               "[init]\nalpha = 0\nv_max = 0\nomega_max = 0\n"
                               "[run]\ncontact_tolerance = 1e-3\ncell_size = 0\ntc_time = 0\nmax_events = 0",
                               {}, "ok.toml"));
+  EXPECT_NO_THROW(load_config("[bonding]\nsphere_valency = 0\nend_valency = 0\ntheta0_deg = 0\ndtheta_deg = 0\n"
+                              "dphi_deg = 0\n[run]\nmser_batch = 1\nmser_min_samples = 5\nmser_check_every = 1",
+                              {}, "ok.toml"));
+  EXPECT_NO_THROW(load_config("[bonding]\nend_valency = 1\ntheta0_deg = 180\ndtheta_deg = 180\ndphi_deg = 90",
+                              {}, "ok.toml"));
 }
 
 TEST(Config, RangeErrorsFromOverrides) {
@@ -266,12 +324,82 @@ TEST(Config, RangeErrorsFromOverrides) {
   EXPECT_CONTAINS(error_of("", {"init.spheres=-1"}), "init.spheres = -1: must be an integer >= 0");
 }
 
-TEST(Config, BondingOnlyFalse) {
+TEST(Config, BondingKeys) {
   EXPECT_FALSE(load_config("[bonding]\nenabled = false", {}, "b.toml").bonding.enabled);
-  const std::string e = error_of("[bonding]\nenabled = true");
-  EXPECT_CONTAINS(e, "bonding.enabled = true");
-  EXPECT_CONTAINS(e, "bonding is not implemented yet in this version");
-  EXPECT_CONTAINS(error_of("", {"bonding.enabled=true"}), "bonding is not implemented yet");
+  EXPECT_TRUE(load_config("[bonding]\nenabled = true", {}, "b.toml").bonding.enabled);
+  EXPECT_TRUE(load_config("", {"bonding.enabled=true"}, "b.toml").bonding.enabled);
+  const std::string text = R"(
+[bonding]
+capture_distance = 0.25
+sphere_valency = 3
+end_valency = 0
+angle_filter = false
+theta0_deg = 109.5
+dtheta_deg = 2
+coplanarity_filter = false
+dphi_deg = 10
+coplanarity_mode = "cis"
+)";
+  const SimParams p = load_config(text, {}, "b.toml");
+  EXPECT_EQ(p.bonding.capture_distance, 0.25);
+  EXPECT_EQ(p.bonding.sphere_valency, 3);
+  EXPECT_EQ(p.bonding.end_valency, 0);
+  EXPECT_FALSE(p.bonding.angle_filter);
+  EXPECT_EQ(p.bonding.theta0_deg, 109.5);
+  EXPECT_EQ(p.bonding.dtheta_deg, 2.0);
+  EXPECT_FALSE(p.bonding.coplanarity_filter);
+  EXPECT_EQ(p.bonding.dphi_deg, 10.0);
+  EXPECT_EQ(p.bonding.coplanarity_mode, CoplanarityMode::Cis);
+  // Overrides, bare and quoted enum names.
+  EXPECT_EQ(load_config(text, {"bonding.coplanarity_mode=cis-or-trans"}, "b.toml").bonding.coplanarity_mode,
+            CoplanarityMode::CisOrTrans);
+  EXPECT_EQ(load_config("", {"bonding.coplanarity_mode=\"cis\""}, "b.toml").bonding.coplanarity_mode,
+            CoplanarityMode::Cis);
+  EXPECT_TRUE(load_config(text, {"bonding.angle_filter=true"}, "b.toml").bonding.angle_filter);
+  EXPECT_CONTAINS(error_of("", {"bonding.end_valency=2"}), "--set: bonding.end_valency = 2: must be an integer in [0, 1]");
+  EXPECT_CONTAINS(error_of("", {"bonding.dphi_deg=91"}), "--set: bonding.dphi_deg = 91: must be in [0, 90]");
+}
+
+TEST(Config, SteadyStateKeys) {
+  const SimParams p = load_config(
+      "[run]\nsteady_state = false\nsample_interval = 0.5\nmser_batch = 10\nmser_min_samples = 50\n"
+      "mser_check_every = 7\n",
+      {}, "r.toml");
+  EXPECT_FALSE(p.run.steady_state);
+  EXPECT_EQ(p.run.sample_interval, 0.5);
+  EXPECT_EQ(p.run.mser_batch, 10);
+  EXPECT_EQ(p.run.mser_min_samples, 50);  // exactly 5 batches: allowed
+  EXPECT_EQ(p.run.mser_check_every, 7);
+  // A test needs 5 batch means: mser_min_samples >= 5 mser_batch.
+  const std::string e = error_of("[run]\nmser_batch = 10\nmser_min_samples = 49");
+  EXPECT_CONTAINS(e, "test.toml:3:20: run.mser_min_samples = 49: must be >= 5 x run.mser_batch = 50");
+  EXPECT_CONTAINS(error_of("", {"run.mser_batch=101"}),
+                  "--set: run.mser_min_samples = 200: must be >= 5 x run.mser_batch = 505");
+}
+
+TEST(Config, EnumDidYouMean) {
+  EXPECT_CONTAINS(error_of("[bonding]\ncoplanarity_mode = \"cis-or-tran\""),
+                  "bonding.coplanarity_mode = \"cis-or-tran\": must be one of cis-or-trans, cis; "
+                  "did you mean \"cis-or-trans\"?");
+  EXPECT_CONTAINS(error_of("", {"bonding.coplanarity_mode=cis_or_trans"}), "did you mean \"cis-or-trans\"?");
+  EXPECT_CONTAINS(error_of("", {"bonding.coplanarity_mode=Cis"}), "did you mean \"cis\"?");
+  EXPECT_CONTAINS(error_of("[contact]\nfriction_rule = \"Min\""), "did you mean \"min\"?");
+  EXPECT_CONTAINS(error_of("[geometry]\nboundary = \"periodc\""), "did you mean \"periodic\"?");
+  // Nothing close: the list of values only.
+  const std::string e = error_of("[bonding]\ncoplanarity_mode = \"anything\"");
+  EXPECT_CONTAINS(e, "must be one of cis-or-trans, cis");
+  EXPECT_EQ(e.find("did you mean"), std::string::npos) << e;
+}
+
+TEST(Config, CaptureDistanceBelowLinkerLength) {
+  const std::string e = error_of("[bonding]\ncapture_distance = 4");
+  EXPECT_CONTAINS(e, "test.toml:2:20: bonding.capture_distance = 4: must be < geometry.linker_length = 4");
+  EXPECT_CONTAINS(error_of("[geometry]\nlinker_length = 0.05"),
+                  "test.toml:2:17: bonding.capture_distance = 0.1: must be < geometry.linker_length = 0.05");
+  EXPECT_NO_THROW(load_config("[bonding]\ncapture_distance = 3.999", {}, "x"));
+  // With bonding off the rule still holds (a disabled capture band is still a setting).
+  EXPECT_CONTAINS(error_of("", {"bonding.enabled=false", "bonding.capture_distance=5"}),
+                  "--set: bonding.capture_distance = 5: must be < geometry.linker_length = 4");
 }
 
 TEST(Config, DynamicFrictionAboveStaticNamesBothKeys) {
@@ -325,6 +453,11 @@ TEST(Config, WrongTypesNameKeyValueAndType) {
       {"[run]\nvalidate = \"yes\"", "run.validate = \"yes\": expected a boolean"},
       {"[geometry]\nboundary = 3", "geometry.boundary = 3: expected a string, one of reflective, periodic"},
       {"[bonding]\nenabled = 0", "bonding.enabled = 0: expected a boolean"},
+      {"[bonding]\nangle_filter = \"on\"", "bonding.angle_filter = \"on\": expected a boolean"},
+      {"[bonding]\nsphere_valency = 1.5", "bonding.sphere_valency = 1.5: expected an integer"},
+      {"[bonding]\ncoplanarity_mode = 0", "bonding.coplanarity_mode = 0: expected a string, one of cis-or-trans, cis"},
+      {"[run]\nmser_batch = \"5\"", "run.mser_batch = \"5\": expected an integer"},
+      {"[run]\nsteady_state = 1", "run.steady_state = 1: expected a boolean"},
       {"geometry = 5", "geometry = 5: expected a table"},
   };
   for (const Case& c : cases) EXPECT_CONTAINS(error_of(c.text), c.expected);
@@ -369,10 +502,13 @@ TEST(Config, UnknownKeyDidYouMean) {
   // A top-level key that belongs to a section.
   EXPECT_CONTAINS(error_of("box_length = 3"), "unknown key \"box_length\"; did you mean \"geometry.box_length\"?");
   EXPECT_CONTAINS(error_of("nmae = \"x\""), "did you mean \"name\"?");
+  EXPECT_CONTAINS(error_of("[bonding]\ncapture_distnace = 0.1"), "did you mean \"bonding.capture_distance\"?");
+  EXPECT_CONTAINS(error_of("[bonding]\ntheta_0_deg = 3"), "did you mean \"bonding.theta0_deg\"?");
   // Nothing close: list the section's keys.
-  const std::string e = error_of("[bonding]\ncapture_distance = 0.1");
-  EXPECT_CONTAINS(e, "unknown key \"bonding.capture_distance\"");
-  EXPECT_CONTAINS(e, "valid keys in [bonding]: enabled");
+  const std::string e = error_of("[bonding]\nbreakable = true");
+  EXPECT_CONTAINS(e, "unknown key \"bonding.breakable\"");
+  EXPECT_CONTAINS(e, "valid keys in [bonding]: enabled, capture_distance, sphere_valency, end_valency, "
+                     "angle_filter, theta0_deg, dtheta_deg, coplanarity_filter, dphi_deg, coplanarity_mode");
 }
 
 TEST(Config, UnknownSectionDidYouMean) {
@@ -459,7 +595,22 @@ TEST(Config, RoundTripIsExact) {
   p.init.v_max = 0.0;
   p.init.omega_max = 3.5e-5;
   p.init.temperature = 1e-12;
+  p.bonding.enabled = false;
+  p.bonding.capture_distance = 0.1 + 1e-17 * 7;  // shortest text needs many digits
+  p.bonding.sphere_valency = 4;
+  p.bonding.end_valency = 0;
+  p.bonding.angle_filter = false;
+  p.bonding.theta0_deg = 109.47122063449069;  // tetrahedral, acos(-1/3)
+  p.bonding.dtheta_deg = 0.0;
+  p.bonding.coplanarity_filter = false;
+  p.bonding.dphi_deg = 90.0;
+  p.bonding.coplanarity_mode = CoplanarityMode::Cis;
   p.run.t_max = 5e3;
+  p.run.steady_state = false;
+  p.run.sample_interval = 0.1;
+  p.run.mser_batch = 1;
+  p.run.mser_min_samples = 2147483647;
+  p.run.mser_check_every = 3;
   p.run.max_events = 9007199254740993LL;  // > 2^53: must stay an integer
   p.run.contact_tolerance = 1e-3;
   p.run.tc_time = 0.0;
@@ -489,7 +640,7 @@ TEST(Config, ScenarioRoundTripWithEscapedStrings) {
 
 TEST(Config, KeyInfoTable) {
   const auto& keys = config_keys();
-  ASSERT_EQ(keys.size(), 32u);
+  ASSERT_EQ(keys.size(), 46u);
   for (const KeyInfo& k : keys) {
     EXPECT_FALSE(k.type.empty()) << k.name;
     EXPECT_FALSE(k.default_value.empty()) << k.name;
@@ -500,6 +651,69 @@ TEST(Config, KeyInfoTable) {
   EXPECT_EQ(keys.front().range, "> 0");
   EXPECT_EQ(keys.back().name, "run.queue");
   EXPECT_EQ(keys.back().range, "fast, reference");
+}
+
+// ---- scenario files (jobs/scenarios) ---------------------------------------------------
+
+// Every file of jobs/scenarios loads, carries its name and a description, and
+// gives the settings of its MODEL.md "Scenarios" row; the file lists only
+// deviations from the built-in defaults (= Scenario 4).
+TEST(Config, ScenarioFilesMatchModelTable) {
+  struct Row {
+    const char* stem;
+    bool angle_filter;
+    bool coplanarity_filter;
+    int bodies;  // N_S = N_L
+    int deviations;  // keys the file must set
+  };
+  const std::vector<Row> rows = {
+      {"1-baseline", false, false, 300, 2},      {"2-bond-angle", true, false, 300, 1},
+      {"3-coplanarity", false, true, 300, 1},    {"4-passive-selection", true, true, 300, 0},
+      {"6-1-low-density", true, true, 150, 2},   {"6-3-high-density", true, true, 600, 2},
+  };
+  const std::filesystem::path dir = std::filesystem::path(RINGSIM_SOURCE_DIR) / "jobs" / "scenarios";
+  ASSERT_TRUE(std::filesystem::is_directory(dir)) << dir;
+
+  std::vector<std::string> found;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() == ".toml") found.push_back(entry.path().stem().string());
+  }
+  std::sort(found.begin(), found.end());
+  std::vector<std::string> expected;
+  for (const Row& r : rows) expected.emplace_back(r.stem);
+  EXPECT_EQ(found, expected) << "every scenario file needs a row here";
+
+  for (const Row& r : rows) {
+    const std::string path = (dir / (std::string(r.stem) + ".toml")).string();
+    SCOPED_TRACE(path);
+    Scenario s;
+    ASSERT_NO_THROW(s = load_scenario_file(path, {}));
+    EXPECT_EQ(s.name, r.stem);
+    EXPECT_FALSE(s.description.empty());
+
+    SimParams want;  // the defaults: Scenario 4, both filters, rigid, 300 + 300
+    want.bonding.angle_filter = r.angle_filter;
+    want.bonding.coplanarity_filter = r.coplanarity_filter;
+    want.init.spheres = r.bodies;
+    want.init.linkers = r.bodies;
+    expect_same(s.params, want);
+    EXPECT_TRUE(s.params.bonding.enabled);
+    EXPECT_EQ(s.params.bonding.theta0_deg, 90.0);
+    EXPECT_EQ(s.params.bonding.dtheta_deg, 5.0);
+    EXPECT_EQ(s.params.bonding.dphi_deg, 5.0);
+
+    // Only deviations: count the key = value lines other than name/description.
+    std::ifstream in(path);
+    std::string line;
+    int keys = 0;
+    while (std::getline(in, line)) {
+      const auto b = line.find_first_not_of(" \t");
+      if (b == std::string::npos || line[b] == '#' || line[b] == '[') continue;
+      if (line.compare(b, 4, "name") == 0 || line.compare(b, 11, "description") == 0) continue;
+      if (line.find('=') != std::string::npos) ++keys;
+    }
+    EXPECT_EQ(keys, r.deviations);
+  }
 }
 
 }  // namespace

@@ -251,9 +251,10 @@ TEST(Cli, BadInputIsRejectedNamingKeyValueAndRange) {
   EXPECT_NE(c.out.find("contact.restitution_sphere"), std::string::npos) << c.out;
   EXPECT_NE(c.out.find("1.5"), std::string::npos) << c.out;
   EXPECT_NE(c.out.find("[0, 1]"), std::string::npos) << c.out;
-  c = run_cli("replicate --seed 1 --set bonding.enabled=true");
+  c = run_cli("replicate --seed 1 --set bonding.dtheta_deg=200");
   EXPECT_EQ(c.status, 1);
-  EXPECT_NE(c.out.find("bonding.enabled"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("bonding.dtheta_deg"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("200"), std::string::npos) << c.out;
   c = run_cli("replicate --seed 1 --set geometry.box_lenght=30");
   EXPECT_EQ(c.status, 1);
   EXPECT_NE(c.out.find("did you mean"), std::string::npos) << c.out;

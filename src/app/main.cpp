@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "analysis/mser_command.hpp"
 #include "core/scene.hpp"
 #include "ensemble/config.hpp"
 #include "ensemble/replicate_command.hpp"
@@ -14,6 +15,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", ringsim::kVersion);
   ringsim::ReplicateOptions rep;
   ringsim::add_replicate_command(app, rep);
+  ringsim::MserOptions mser_opts;
+  ringsim::add_mser_command(app, mser_opts);
   CLI::App* keys = app.add_subcommand("keys", "List every configuration key with its default, range and meaning.");
   try {
     app.parse(argc, argv);
@@ -22,6 +25,7 @@ int main(int argc, char** argv) {
   }
   try {
     if (app.got_subcommand("replicate")) return ringsim::replicate_main(rep, std::cout);
+    if (app.got_subcommand("mser")) return ringsim::mser_main(mser_opts, std::cin, std::cout, std::cerr);
     if (keys->parsed()) {
       for (const auto& k : ringsim::config_keys())
         std::cout << k.name << " (" << k.type << ", default " << k.default_value << ", " << k.range << "): "

@@ -39,4 +39,12 @@ const char* to_string(QueueKind q) {
   return "?";
 }
 
+const char* to_string(CoplanarityMode m) {
+  switch (m) {
+    case CoplanarityMode::CisOrTrans: return "cis-or-trans";
+    case CoplanarityMode::Cis: return "cis";
+  }
+  return "?";
+}
+
 }  // namespace ringsim

@@ -16,6 +16,9 @@ enum class Boundary { Reflective, Periodic };
 enum class CombineRule { Min, Max, Product, Mean };
 enum class VelocityInit { Uniform, Thermal };
 enum class QueueKind { Fast, Reference };
+// Which dihedrals the coplanarity filter accepts (MODEL.md, capture rule 3):
+// CisOrTrans, deviation min(|phi|, 180 - |phi|) (the Decision); Cis, |phi|.
+enum class CoplanarityMode { CisOrTrans, Cis };
 
 struct GeometryParams {
   double sphere_radius = 1.0;
@@ -50,12 +53,38 @@ struct InitParams {
   double temperature = 1.0;  // k_B = 1
 };
 
+// Capture and bond formation (MODEL.md, "Capture and bond formation"). The
+// defaults are the study's Scenario 4 (= 6-2): both filters on, rigid bonds.
+// Angles in degrees; the geometry of the rules is in core/bond_rules.hpp.
 struct BondingParams {
-  bool enabled = false;  // bonding arrives with issue 3; only false is accepted now
+  bool enabled = true;            // false: hard bodies only, no captures
+  double capture_distance = 0.1;  // r_c: a capture is the gap |p - x_S| - r_S falling through r_c
+  int sphere_valency = 2;         // v_S: bonds a sphere can carry
+  // v_aL = v_bL: bonds one linker end can carry. At most 1: an end face meets
+  // at most one sphere, and the rules (bond angle, dihedral) assume one.
+  int end_valency = 1;
+  bool angle_filter = true;  // rule 2: |theta - theta0| <= dtheta at a sphere with two bonds
+  double theta0_deg = 90.0;
+  double dtheta_deg = 5.0;
+  bool coplanarity_filter = true;  // rule 3: dihedral deviation from planarity <= dphi
+  double dphi_deg = 5.0;
+  CoplanarityMode coplanarity_mode = CoplanarityMode::CisOrTrans;
 };
 
+// Run control. A replicate ends at t_max or, with steady_state, when MSER-b
+// (White 1997, batch size b = mser_batch) on the N_t series sampled every
+// sample_interval puts its truncation point in the first half of the series
+// (MODEL.md, "Protocol"). The test runs once mser_min_samples samples exist,
+// then after every mser_check_every new samples.
 struct RunParams {
-  double t_max = 5000.0;
+  double t_max = 5000.0;              // the study's 5e5 steps of 0.01
+  bool steady_state = true;           // stop at MSER steady state; false = run to t_max
+  double sample_interval = 1.0;       // time between samples of N_t
+  int mser_batch = 5;                 // MSER batch size b (MSER-5)
+  // Samples before the first test; >= 2 mser_batch, so that the series holds
+  // the 2 batch means MSER needs (the candidates d = 0 .. k-2 keep >= 2).
+  int mser_min_samples = 200;
+  int mser_check_every = 50;          // samples between tests
   std::int64_t max_events = 0;        // event budget; 0 = unlimited
   double contact_tolerance = 1e-9;    // gap at which a non-closed-form contact fires
   double tc_time = 1e-7;              // TC model (Luding & McNamara 1998) collision-time window
@@ -76,5 +105,6 @@ const char* to_string(Boundary b);
 const char* to_string(CombineRule r);
 const char* to_string(VelocityInit v);
 const char* to_string(QueueKind q);
+const char* to_string(CoplanarityMode m);
 
 }  // namespace ringsim

@@ -1,12 +1,15 @@
 #include "ensemble/config.hpp"
 
+#include "analysis/mser.hpp"
+
 // Loading works in three steps, all driven by one table of key descriptors:
 //   1. parse the TOML text (syntax errors: source:line:column);
 //   2. for each key of the file, then each --set override: look the key up
 //      (unknown: did-you-mean), convert the value to the key's type, check the
 //      key's own range, store it through the descriptor;
 //   3. check the rules that involve several keys (friction order, at least one
-//      body, box large enough).
+//      body, box large enough, capture distance below the linker length, MSER
+//      minimum length).
 // Problems are collected and reported together, in source order, one per line.
 
 #include <toml++/toml.h>
@@ -115,6 +118,10 @@ template <>
 struct EnumValues<QueueKind> {
   static constexpr std::array all{QueueKind::Fast, QueueKind::Reference};
 };
+template <>
+struct EnumValues<CoplanarityMode> {
+  static constexpr std::array all{CoplanarityMode::CisOrTrans, CoplanarityMode::Cis};
+};
 
 template <typename E>
 std::optional<E> parse_enum(std::string_view s) {
@@ -143,7 +150,7 @@ std::string join(const std::vector<std::string>& items, const char* sep) {
 // ---- ranges ----------------------------------------------------------------
 
 struct Range {
-  enum class Kind { Any, Greater, AtLeast, Closed, LeftOpen, OnlyFalse };
+  enum class Kind { Any, Greater, AtLeast, Closed, LeftOpen };
   Kind kind = Kind::Any;
   double lo = 0.0;
   double hi = 0.0;
@@ -154,7 +161,6 @@ constexpr Range at_least(double lo) { return {Range::Kind::AtLeast, lo, 0.0}; }
 constexpr Range closed(double lo, double hi) { return {Range::Kind::Closed, lo, hi}; }
 constexpr Range left_open(double lo, double hi) { return {Range::Kind::LeftOpen, lo, hi}; }
 constexpr Range any() { return {}; }
-constexpr Range only_false() { return {Range::Kind::OnlyFalse, 0.0, 0.0}; }
 
 bool in_range(const Range& r, double x) {
   switch (r.kind) {
@@ -163,7 +169,6 @@ bool in_range(const Range& r, double x) {
     case Range::Kind::AtLeast: return x >= r.lo;
     case Range::Kind::Closed: return x >= r.lo && x <= r.hi;
     case Range::Kind::LeftOpen: return x > r.lo && x <= r.hi;
-    case Range::Kind::OnlyFalse: return true;
   }
   return false;
 }
@@ -176,7 +181,6 @@ std::string range_text(const Range& r) {
     case Range::Kind::AtLeast: return ">= " + format_real(r.lo);
     case Range::Kind::Closed: return "in [" + format_real(r.lo) + ", " + format_real(r.hi) + "]";
     case Range::Kind::LeftOpen: return "in (" + format_real(r.lo) + ", " + format_real(r.hi) + "]";
-    case Range::Kind::OnlyFalse: return "false";
   }
   return "";
 }
@@ -311,11 +315,41 @@ const std::vector<KeyDesc>& key_table() {
       key<&S::init, &I::temperature>("init.temperature", greater(0),
           "thermal: temperature T (k_B = 1)"),
 
-      key<&S::bonding, &B::enabled>("bonding.enabled", only_false(),
-          "capture and bond formation; not implemented yet in this version, only false is accepted"),
+      key<&S::bonding, &B::enabled>("bonding.enabled", any(),
+          "capture and bond formation; false = hard bodies only, no captures"),
+      key<&S::bonding, &B::capture_distance>("bonding.capture_distance", greater(0),
+          "capture distance r_c (length): a linker end and a sphere meet when the gap |p - x_S| - r_S "
+          "falls through r_c; < geometry.linker_length"),
+      key<&S::bonding, &B::sphere_valency>("bonding.sphere_valency", at_least(0),
+          "valency v_S: number of bonds a sphere can carry"),
+      key<&S::bonding, &B::end_valency>("bonding.end_valency", closed(0, 1),
+          "valency v_aL = v_bL of each linker end (an end face bonds at most one sphere); 0 = inert ends"),
+      key<&S::bonding, &B::angle_filter>("bonding.angle_filter", any(),
+          "bond-angle rule: at a sphere with two bonds, |theta - theta0_deg| <= dtheta_deg"),
+      key<&S::bonding, &B::theta0_deg>("bonding.theta0_deg", closed(0, 180),
+          "target bond angle theta_0 (degrees) between the two linker axes at a sphere, each pointing away from it"),
+      key<&S::bonding, &B::dtheta_deg>("bonding.dtheta_deg", closed(0, 180),
+          "half-width Delta_theta (degrees) of the bond-angle window, boundary included"),
+      key<&S::bonding, &B::coplanarity_filter>("bonding.coplanarity_filter", any(),
+          "coplanarity rule: the dihedral about a linker with cornered spheres at both ends deviates from "
+          "planarity by <= dphi_deg"),
+      key<&S::bonding, &B::dphi_deg>("bonding.dphi_deg", closed(0, 90),
+          "half-width Delta_phi (degrees) of the coplanarity window, boundary included"),
+      key<&S::bonding, &B::coplanarity_mode>("bonding.coplanarity_mode", any(),
+          "planar dihedrals: cis-or-trans (deviation min(|phi|, 180 - |phi|)) or cis (deviation |phi|)"),
 
       key<&S::run, &R::t_max>("run.t_max", greater(0),
-          "simulated time limit of a replicate"),
+          "simulated time limit of a replicate (the study's 5e5 steps of 0.01)"),
+      key<&S::run, &R::steady_state>("run.steady_state", any(),
+          "stop at steady state (MSER on the N_t series) before t_max; false = always run to t_max"),
+      key<&S::run, &R::sample_interval>("run.sample_interval", greater(0),
+          "time between samples of the number of objects N_t for steady-state detection"),
+      key<&S::run, &R::mser_batch>("run.mser_batch", at_least(1),
+          "MSER batch size, in samples (5 = MSER-5)"),
+      key<&S::run, &R::mser_min_samples>("run.mser_min_samples", at_least(2),
+          "samples before the first steady-state test; >= 5 x run.mser_batch"),
+      key<&S::run, &R::mser_check_every>("run.mser_check_every", at_least(1),
+          "samples between steady-state tests after the first"),
       key<&S::run, &R::max_events>("run.max_events", at_least(0),
           "event budget of a replicate; 0 = unlimited"),
       key<&S::run, &R::contact_tolerance>("run.contact_tolerance", left_open(0, 1e-3),
@@ -521,14 +555,13 @@ std::string check_value(const KeyDesc& d, const Value& v) {
       return "";
     }
     case KeyType::Bool:
-      if (d.range.kind == Range::Kind::OnlyFalse && std::get<bool>(v)) {
-        return "bonding is not implemented yet in this version; only false is accepted";
-      }
       return "";
     case KeyType::Enum: {
       const auto names = d.choices();
-      if (std::find(names.begin(), names.end(), std::get<std::string>(v)) == names.end()) {
-        return "must be one of " + join(names, ", ");
+      const std::string& name = std::get<std::string>(v);
+      if (std::find(names.begin(), names.end(), name) == names.end()) {
+        const std::string hint = suggest(name, names);
+        return "must be one of " + join(names, ", ") + (hint.empty() ? "" : "; did you mean \"" + hint + "\"?");
       }
       return "";
     }
@@ -635,6 +668,30 @@ void check_cross(const SimParams& p, const Origins& origins, Problems& problems)
                      format_real(p.geometry.box_length) + ": must be > " + format_real(periodic_min) +
                      " with geometry.boundary = periodic (twice the interaction range 2 x (2 x " + which +
                      " + 2 x run.contact_tolerance), for the minimum-image convention)");
+  }
+
+  // The capture band is a thin shell at an end face: with r_c >= l_L one end
+  // could capture a sphere resting on the axis against the other end face,
+  // so both ends of one linker could bond the same sphere.
+  if (!(p.bonding.capture_distance < p.geometry.linker_length)) {
+    std::string where = origin(origins, "bonding.capture_distance");
+    if (where.empty()) where = origin(origins, "geometry.linker_length");
+    problems.add(2, 0, 0,
+                 where + "bonding.capture_distance = " + format_real(p.bonding.capture_distance) +
+                     ": must be < geometry.linker_length = " + format_real(p.geometry.linker_length));
+  }
+
+  // A steady-state test needs enough batch means to say "not steady"
+  // (analysis/mser.hpp, kMinMonitorBatches).
+  const std::int64_t min_batches = static_cast<std::int64_t>(kMinMonitorBatches);
+  if (static_cast<std::int64_t>(p.run.mser_min_samples) < min_batches * static_cast<std::int64_t>(p.run.mser_batch)) {
+    std::string where = origin(origins, "run.mser_min_samples");
+    if (where.empty()) where = origin(origins, "run.mser_batch");
+    problems.add(2, 0, 0,
+                 where + "run.mser_min_samples = " + std::to_string(p.run.mser_min_samples) + ": must be >= " +
+                     std::to_string(min_batches) + " x run.mser_batch = " +
+                     std::to_string(min_batches * static_cast<std::int64_t>(p.run.mser_batch)) +
+                     " (MSER needs at least " + std::to_string(min_batches) + " batch means to tell a trend)");
   }
 }
 
@@ -816,8 +873,7 @@ std::string range_info(const KeyDesc& d) {
   switch (d.type) {
     case KeyType::Real: return range_text(d.range);
     case KeyType::Integer: return range_text(d.range);
-    case KeyType::Bool:
-      return d.range.kind == Range::Kind::OnlyFalse ? "false (bonding not implemented yet)" : "true, false";
+    case KeyType::Bool: return "true, false";
     case KeyType::Enum: return join(d.choices(), ", ");
   }
   return "";

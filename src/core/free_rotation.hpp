@@ -1,0 +1,130 @@
+#pragma once
+// Exact torque-free rotation of a rigid body with any principal moments
+// (asymmetric, symmetric or spherical top).
+//
+// Angular momentum: the classical solution of Euler's equations in Jacobi
+// elliptic functions (Landau & Lifshitz, Mechanics, section 37). In a
+// "working" principal frame X = (x, y, z), with I_y the middle moment and z the
+// axis that L circles (z = largest-moment axis if L^2 > 2 E I_mid, else the
+// smallest):
+//   L_x = a cn(u|m),  L_y = b sn(u|m),  L_z = c dn(u|m),  u = lambda t + u0.
+// Orientation: the factorisation of van Zon & Schofield, J. Comput. Phys. 225,
+// 145 (2007): R(t) = A Rz(psi(t)) G(l(t)) P^T, where G(l) is an explicit
+// rotation taking the unit body angular momentum l = L_body/|L| to the pole e3,
+// Rz(psi) a rotation about L by the precession angle psi (an incomplete
+// elliptic integral of the third kind), and A, P constant. See
+// free_rotation.cpp for the formulas and references.
+//
+// Invariants and units: moments in mass*length^2, times in the caller's unit,
+// angular velocity in rad per time unit. Everything that does not depend on
+// dt is computed in the constructor; the evaluation methods are const, free of
+// allocation and exceptions, and reduce the elliptic argument by its period,
+// so their accuracy does not degrade with |dt| (beyond the unavoidable
+// ~1e-16 * |omega dt| rounding of the phase itself).
+
+#include <array>
+
+#include "core/vec.hpp"
+
+namespace ringsim {
+
+// Torque-free motion of a rigid body: orientation R(t) (world <- body) and
+// angular velocity, exact, from the state at a reference time (dt = t - t0).
+class FreeRotation {
+ public:
+  FreeRotation() = default;  // at rest, identity orientation, unit moments
+  // principal_moments: body-frame principal moments (any order, all > 0; the body
+  // frame is the one R0 maps to world). R0: orientation at t0 (proper rotation).
+  // L: world angular momentum (conserved).
+  FreeRotation(const Vec3& principal_moments, const Mat3& R0, const Vec3& L_world);
+
+  Mat3 orientation(double dt) const;     // world <- body at t0 + dt
+  Vec3 omega_body(double dt) const;      // body-frame angular velocity
+  Vec3 omega_world(double dt) const;     // = orientation(dt) * omega_body(dt)
+  Vec3 angular_momentum_body(double dt) const;  // L in the body frame
+  const Vec3& angular_momentum() const { return L_world_; }  // world, constant
+  double energy() const { return energy_; }  // rotational kinetic energy, constant
+  // An upper bound on |omega(t)| valid for every t: the exact maximum over the
+  // orbit (|omega|^2 is linear in sn^2), times (1 + 1e-12).
+  double max_rate() const { return max_rate_; }
+
+  const Vec3& principal_moments() const { return moments_; }
+  const Mat3& initial_orientation() const { return R0_; }
+
+  // Which closed form is used (for tests and diagnostics).
+  enum class Mode {
+    Rest,        // L = 0
+    Uniform,     // omega parallel to L: principal axis, spherical top, or L in
+                 // the degenerate plane of a symmetric top
+    Elliptic,    // general case, 0 <= m < 1
+    Separatrix,  // L^2 = 2 E I_mid exactly (m = 1): hyperbolic functions
+  };
+  Mode mode() const { return mode_; }
+  double parameter_m() const { return m_; }    // elliptic parameter m = k^2
+  double parameter_mc() const { return mc_; }  // complementary 1 - m, computed directly
+  // Period of the body-frame motion of L (4K/lambda); 0 at rest, uniform or
+  // separatrix motion (no period).
+  double body_period() const;
+
+ private:
+  struct Jacobi {
+    double sn, cn, dn;
+  };
+  // The elliptic argument at t0 + dt reduced by its half period:
+  // u = lambda dt + u0 = 2 j K + v, |v| <= K (j = 0 on the separatrix).
+  double reduced_argument(double dt, double& j) const;
+  // sn, cn, dn at v, |v| <= K (any v on the separatrix).
+  Jacobi jacobi(double v) const;
+  Vec3 momentum_xp(double j, const Jacobi& f) const;  // L in X' at u = 2jK + v
+  // sn, cn, dn for 0 <= w <= K/2 by the AGM (Abramowitz & Stegun 16.4).
+  Jacobi jacobi_agm(double w) const;
+  // J(v) = int_0^v sn^2 / (1 - n sn^2) du for |v| <= K (m < 1), or any v (m = 1).
+  double integral_j(double v, const Jacobi& f) const;
+  Mat3 body_rotation(const Vec3& l) const;  // G(l) in the pole frame X'
+
+  Mode mode_ = Mode::Rest;
+  Vec3 moments_ = Vec3::Ones();
+  Mat3 R0_ = Mat3::Identity();
+  Vec3 L_world_ = Vec3::Zero();
+  double energy_ = 0.0;
+  double max_rate_ = 0.0;
+
+  // Rest / Uniform: omega_body constant, R(t) = Rot(axis, rate t) R0.
+  Vec3 omega_body0_ = Vec3::Zero();
+  Vec3 axis_world_ = Vec3::UnitZ();
+  double rate_ = 0.0;
+
+  // Elliptic / Separatrix.
+  Mat3 A_ = Mat3::Identity();  // world <- pole frame at t0: R0 P G(l0)^T
+  Mat3 P_ = Mat3::Identity();  // body <- X' (signed permutation, det +1)
+  bool pole_x_ = false;        // X' = (y, z, x) if true, else X' = (x, y, z)
+  double amp_a_ = 0, amp_b_ = 0, amp_c_ = 0;  // L_x = a cn, L_y = b sn, L_z = c dn
+  double inv_L_ = 0;           // 1 / |L|
+  double u0_ = 0;
+  double m_ = 0, mc_ = 1, kc_ = 1;  // m, m' = 1 - m, k' = sqrt(m')
+  double K_ = 0;               // complete elliptic integral K(m)
+  double n_ = 0;               // characteristic (<= 0): 1 / (1 - l_pole^2) ~ 1 / (1 - n sn^2)
+  // psi = rate_lin t + coef_j (J(u) - J(u0)), J(u + 2K) = J(u) + 2 J(K).
+  double rate_lin_ = 0, coef_j_ = 0, J0_ = 0;
+  // The secular parts as unevaluated sums hi + lo (constants computed in long
+  // double), so that the phase does not lose accuracy at large |dt|:
+  // u = lambda dt + u0 is reduced by multiples of 2K, and psi advances by
+  // psi_half per 2K of u, reduced modulo 2 pi.
+  double lam_hi_ = 0, lam_lo_ = 0;
+  double two_k_hi_ = 0, two_k_lo_ = 0;
+  double t_half_hi_ = 0, t_half_lo_ = 0;  // 2K / lambda
+  double psi_half_hi_ = 0, psi_half_lo_ = 0;
+  // AGM tables: phi_N = scale * w; phi_{i-1} = (phi_i + asin(ratio[i] sin phi_i)) / 2.
+  int agm_n_ = 0;
+  double agm_scale_ = 1;
+  std::array<double, 40> agm_ratio_{};
+};
+
+// Carlson's symmetric elliptic integrals [Carlson, Numer. Algorithms 10, 13
+// (1995); DLMF 19.36], used by FreeRotation and exposed for its tests.
+namespace elliptic {
+double carlson_rf(double x, double y, double z);              // x, y, z >= 0, at most one 0
+double carlson_rj(double x, double y, double z, double p);    // as R_F, and p > 0
+}  // namespace elliptic
+
+}  // namespace ringsim
