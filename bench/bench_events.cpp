@@ -32,6 +32,7 @@ double box_for_packing(int spheres, int linkers, double packing) {
 
 SimParams hard_spheres(int n, double packing) {
   SimParams p;
+  p.bonding.enabled = false;  // hard-body dynamics
   p.init.spheres = n;
   p.init.linkers = 0;
   p.init.velocity = VelocityInit::Thermal;
@@ -92,6 +93,7 @@ int main(int argc, char** argv) {
   cases.push_back({"hs-N4000-phi0.25 (Smallenburg 6.0e5 coll/s)", hard_spheres(4000, 0.25), 2'000'000 / scale});
   {
     SimParams p;  // the default scene: 300 + 300, 50 box, reflective, no bonding
+    p.bonding.enabled = false;  // hard-body dynamics
     p.run.t_max = 1e12;
     cases.push_back({"default-300S+300L-reflective", p, 200'000 / scale});
     p.init.spheres = 0;
@@ -102,6 +104,7 @@ int main(int argc, char** argv) {
   // Scaling at the default box's density (0.040), mixed 1:1.
   for (int n : {1000, 10000, 100000}) {
     SimParams p;
+    p.bonding.enabled = false;  // hard-body dynamics
     p.init.spheres = n / 2;
     p.init.linkers = n / 2;
     p.geometry.boundary = Boundary::Periodic;

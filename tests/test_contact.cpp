@@ -29,6 +29,7 @@ struct Init {
 
 SimParams two_body_params(double e, double mu_s = 0.0, double nu = 0.0) {
   SimParams p;
+  p.bonding.enabled = false;  // hard-body contacts only
   p.geometry.box_length = 40.0;
   p.init.spheres = 0;
   p.init.linkers = 0;

@@ -51,6 +51,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 // Periodic elastic smooth gas settings: no walls, no friction, no dissipation.
 SimParams gas_params(int spheres, int linkers, double box_length) {
   SimParams p;
+  p.bonding.enabled = false;  // hard-body gas
   p.geometry.boundary = Boundary::Periodic;
   p.geometry.box_length = box_length;
   p.contact = ContactParams{};  // restitution 1, friction 0 everywhere

@@ -6,14 +6,18 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <memory>
 #include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "core/event_queue.hpp"
 #include "core/motion.hpp"
 #include "core/rng.hpp"
 #include "core/scene.hpp"
 #include "core/simulation.hpp"
+#include "core/snapshot.hpp"
 #include "core/validation.hpp"
 #include "ensemble/config.hpp"
 
@@ -46,6 +50,7 @@ std::vector<Simulation::LoggedEvent> event_log(SimParams p, std::uint64_t seed) 
 
 TEST(EventQueue, FastAndReferenceQueuesGiveIdenticalEventSequence) {
   SimParams p;  // default scene, 300 + 300 bodies
+  p.bonding.enabled = false;  // hard-body dynamics
   p.run.t_max = 4.0;
   p.run.queue = QueueKind::Fast;
   const auto a = event_log(p, 11);
@@ -63,6 +68,7 @@ TEST(EventQueue, FastAndReferenceQueuesGiveIdenticalEventSequence) {
 
 TEST(Validation, DefaultBoxHundredThousandEventsNoOverlapElastic) {
   SimParams p;  // 300 spheres + 300 linkers, 50 box, reflective, e = 1, smooth
+  p.bonding.enabled = false;  // hard-body dynamics
   p.run.t_max = 1e9;
   p.run.max_events = 100000;
   Simulation sim(p, build_scene(p, 5, 0, nullptr));
@@ -81,6 +87,7 @@ TEST(Validation, DefaultBoxHundredThousandEventsNoOverlapElastic) {
 
 TEST(Validation, PeriodicFrictionalInelasticRunKeepsMomentumAndNoOverlap) {
   SimParams p;
+  p.bonding.enabled = false;  // hard-body dynamics
   p.geometry.boundary = Boundary::Periodic;
   p.contact.restitution_sphere = 0.8;
   p.contact.restitution_linker = 0.9;
@@ -107,6 +114,7 @@ TEST(Regression, GrazingWallContactOfALinkerDoesNotStall) {
   // the contact band (gap 3e-15) whose single support point looked separating
   // while the exact gap was closing, with certified steps below one ulp of t.
   SimParams p;
+  p.bonding.enabled = false;  // hard-body dynamics
   p.run.t_max = 1e12;
   p.run.max_events = 160000;
   Simulation sim(p, build_scene(p, 1001, 0, nullptr));
@@ -120,6 +128,7 @@ TEST(Regression, GrazingWallContactOfALinkerDoesNotStall) {
 // TC model at t = 966, 189, 105 for seeds 2, 3, 4).
 SimParams collapsing_gas(double tc_time, std::int64_t event_budget) {
   SimParams p;
+  p.bonding.enabled = false;  // hard-body dynamics
   p.geometry.boundary = Boundary::Periodic;
   p.init.linkers = 0;
   p.init.spheres = 2000;
@@ -243,6 +252,45 @@ TEST(Cli, ReplicateJsonHasTheContractFields) {
                           "\"termination\":\"t_max\"", "\"wall_seconds\":", "\"translational\":", "\"rotational\":",
                           "\"momentum\":["})
     EXPECT_NE(c.out.find(key), std::string::npos) << key << " missing in " << c.out;
+}
+
+TEST(Cli, ReplicateJsonHasTheObservables) {
+  // Scenario 1 (valency only) for 40 time units: bonds form, fractions are
+  // fractions, S4 is a number or null, never a percentage.
+  const Cmd c = run_cli("replicate --seed 2 --set run.t_max=40 --set bonding.angle_filter=false "
+                        "--set bonding.coplanarity_filter=false --json");
+  ASSERT_EQ(c.status, 0) << c.out;
+  const nlohmann::json j = nlohmann::json::parse(c.out);
+  for (const char* key : {"captures", "bonds", "N_t", "N_tar", "N_viab", "N_cyc", "rings", "Phi_obj", "Phi_viab", "S4",
+                          "M_mono", "M_mono_S", "M_mono_L", "tau_tar", "tau_tar_censored", "termination", "t_end"})
+    EXPECT_TRUE(j.contains(key)) << key << " missing in " << c.out;
+  EXPECT_GT(j["bonds"].get<int>(), 0);
+  EXPECT_EQ(j["N_t"].get<int>(), 600 - j["bonds"].get<int>() + j["N_cyc"].get<int>() + j["rings"].value("2", 0));
+  for (const char* key : {"Phi_obj", "Phi_viab", "M_mono", "M_mono_S", "M_mono_L"}) {
+    EXPECT_GE(j[key].get<double>(), 0.0) << key;
+    EXPECT_LE(j[key].get<double>(), 1.0) << key;
+  }
+  EXPECT_TRUE(j["S4"].is_null() || (j["S4"].get<double>() >= 0.0 && j["S4"].get<double>() <= 1.0));
+}
+
+TEST(Cli, ReplicateSnapshotWritesTheFinalConfiguration) {
+  const std::string path = ::testing::TempDir() + "ringsim_snapshot_test.xyz";
+  std::remove(path.c_str());
+  const Cmd c = run_cli("replicate --seed 4 --set run.t_max=30 --snapshot " + path + " --json");
+  ASSERT_EQ(c.status, 0) << c.out;
+  std::ifstream in(path);
+  ASSERT_TRUE(in) << path;
+  const Snapshot snap = read_extended_xyz(in);
+  EXPECT_EQ(snap.bodies.size(), 600u);
+  EXPECT_DOUBLE_EQ(snap.time, 30.0);
+  const nlohmann::json j = nlohmann::json::parse(c.out);
+  EXPECT_EQ(static_cast<int>(snap.bonds.size()), j["bonds"].get<int>());
+  for (const SnapshotBody& b : snap.bodies)
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_GE(b.x[d], 0.0);
+      EXPECT_LE(b.x[d], 50.0);
+    }
+  std::remove(path.c_str());
 }
 
 TEST(Cli, BadInputIsRejectedNamingKeyValueAndRange) {

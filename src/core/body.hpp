@@ -18,8 +18,10 @@
 //    velocity is omega(t) = Omega + lambda * axis(t). Spheres: 0.
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
+#include "core/free_rotation.hpp"
 #include "core/vec.hpp"
 
 namespace ringsim {
@@ -63,6 +65,41 @@ struct Species {
   double dynamic_friction;
 };
 
+// A rigid cluster (MODEL.md, "Two bond regimes", rigid): bonded bodies moving
+// as one rigid body with the relative pose they had when they bonded.
+//
+// Invariants (world frame, reduced units):
+//  - x: centre of mass at the reference time t (periodic boxes: wrapped into
+//    [0, L) at every re-basing); v: its constant velocity;
+//  - rot: exact torque-free rotation from t (core/free_rotation.hpp): the
+//    orientation R(t) maps the body frame (principal axes) to the world; the
+//    world angular momentum about the centre of mass is constant;
+//  - a member i sits at x + v (t' - t) + R(t') offset[i] with axis
+//    R(t') body_axis[i] (BodyStore);
+//  - max_rate bounds |omega(t')| for all t' (rot.max_rate()).
+// A cluster absorbed by a merge is left behind with no members (alive false).
+struct Cluster {
+  double t = 0.0;
+  Vec3 x = Vec3::Zero();
+  Vec3 v = Vec3::Zero();
+  FreeRotation rot;
+  Vec3 moments = Vec3::Ones();  // principal moments of inertia
+  double mass = 0.0;
+  double max_rate = 0.0;
+  std::vector<int> members;
+  bool alive = false;
+  // Orientation cache: predictions evaluate many members at one time.
+  mutable double cache_t = std::numeric_limits<double>::quiet_NaN();
+  mutable Mat3 cache_R = Mat3::Identity();
+  const Mat3& orientation_at(double t_abs) const {
+    if (t_abs != cache_t) {
+      cache_R = rot.orientation(t_abs - t);
+      cache_t = t_abs;
+    }
+    return cache_R;
+  }
+};
+
 struct BodyStore {
   std::vector<Kinematics> kin;
   std::vector<Shape> shape;
@@ -71,6 +108,16 @@ struct BodyStore {
   std::vector<std::uint32_t> counter;
   std::vector<double> last_collision;  // time of the last impulse (TC model)
   Species species[2];
+  // Rigid clusters. group[i] is body i's cluster, -1 for a free body (whose
+  // trajectory is kin[i]); offset/body_axis: its centre relative to the
+  // cluster's centre of mass and its axis, in the cluster's body frame;
+  // reach[i] = |offset[i]|. Members' kin[i] is a snapshot for output only,
+  // refreshed by Simulation::synchronize.
+  std::vector<int> group;
+  std::vector<Vec3> offset;
+  std::vector<Vec3> body_axis;
+  std::vector<double> reach;
+  std::vector<Cluster> clusters;
 
   int size() const { return static_cast<int>(kin.size()); }
   const Species& sp(int i) const { return species[static_cast<int>(shape[i])]; }

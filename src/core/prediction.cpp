@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/motion.hpp"
+#include "core/pose.hpp"
 #include "core/corotating_plane.hpp"
 #include "core/separating_plane.hpp"
 
@@ -41,22 +42,35 @@ bool sphere_window(const Vec3& dx, const Vec3& dv, double R, double* enter, doub
   return true;
 }
 
-Vec3 support_point_of(const Kinematics& k, const Species& s, double t, const Vec3& n) {
-  const Vec3 c = position_at(k, t);
+// The window in which a body whose reference point moves linearly (x + v s
+// along one axis) can touch the wall at 0 (dir -1) or at L (dir +1): while
+// that point is within `reach` of the wall. Narrows [*start, *end) from t;
+// false when the point never comes that close.
+bool wall_window_impl(double L, double x, double v, int dir, double reach, double t, double* start, double* end) {
+  const double gap_c = dir > 0 ? L - x : x;
+  const double rate_c = dir > 0 ? -v : v;
+  if (rate_c < 0.0) {
+    *start = t + std::max(0.0, gap_c - reach) / -rate_c;
+  } else if (gap_c <= reach) {
+    *start = t;
+    if (rate_c > 0.0) *end = std::min(*end, t + (reach - gap_c) / rate_c);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+Vec3 support_point_of(const BodyStore& b, int i, double t, const Vec3& n) {
+  const Species& s = b.sp(i);
+  const Vec3 c = body_center(b, i, t);
   if (s.shape == Shape::Sphere) return c + s.radius * n;
-  const Vec3 u = axis_at(k, t);
+  const Vec3 u = body_axis(b, i, t);
   const double un = u.dot(n);
   Vec3 p = c + (un >= 0.0 ? s.half_length : -s.half_length) * u;
   const Vec3 radial = n - un * u;
   const double rn = radial.norm();
   if (rn > 1e-12) p += s.radius * radial / rn;
   return p;
-}
-
-// Velocity of the shape's surface at world point p (precession moves the
-// shape; spin about the axis does not).
-Vec3 surface_velocity(const Kinematics& k, double t, const Vec3& p, const Vec3& center) {
-  return k.v + k.precession.cross(p - center);
 }
 
 // Well-conditioned contact normals from the closest features. A normal taken
@@ -117,25 +131,26 @@ double Predictor::sphere_sphere(int i, int j, double t, double limit, const Vec3
 }
 
 double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
-  const Vec3 dx = box_.min_image(position_at(b_.kin[j], t) - xi);
+  // xi: i's reference point at t (its centre, or its cluster's centre of mass).
+  const Vec3 dx = box_.min_image(reference_center(b_, j, t) - xi);
   double enter, leave;
-  if (!sphere_window(dx, b_.kin[j].v - b_.kin[i].v, b_.sp(i).bounding_radius + b_.sp(j).bounding_radius + delta_, &enter,
-                     &leave))
+  if (!sphere_window(dx, reference_velocity(b_, j) - reference_velocity(b_, i),
+                     reference_radius(b_, i) + reference_radius(b_, j) + delta_, &enter, &leave))
     return kNever;
   return t + enter;
 }
 
 double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
+  if (in_cluster(b_, i) || in_cluster(b_, j)) return advance_generic(i, j, t, limit);
   if (b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) return sphere_sphere(i, j, t, limit, xi);
   return advance_pair(i, j, t, limit);
 }
 
 ContactGeometry Predictor::contact_geometry(int i, int j, double t) const {
-  const Kinematics &ki = b_.kin[i], &kj = b_.kin[j];
   const Species &si = b_.sp(i), &sj = b_.sp(j);
   ContactGeometry g;
-  g.center_a = position_at(ki, t);
-  g.center_b = g.center_a + box_.min_image(position_at(kj, t) - g.center_a);
+  g.center_a = body_center(b_, i, t);
+  g.center_b = g.center_a + box_.min_image(body_center(b_, j, t) - g.center_a);
   const Shape a = si.shape, b = sj.shape;
   if (a == Shape::Sphere && b == Shape::Sphere) {
     const Vec3 d = g.center_b - g.center_a;
@@ -145,21 +160,21 @@ ContactGeometry Predictor::contact_geometry(int i, int j, double t) const {
     g.sep.point_a = g.center_a + si.radius * g.sep.normal;
     g.sep.point_b = g.center_b - sj.radius * g.sep.normal;
   } else if (a == Shape::Sphere) {
-    g.sep = geom::sphere_cylinder(g.center_a, si.radius, geom::Cylinder{g.center_b, axis_at(kj, t), sj.radius, sj.half_length});
+    g.sep = geom::sphere_cylinder(g.center_a, si.radius, geom::Cylinder{g.center_b, body_axis(b_, j, t), sj.radius, sj.half_length});
   } else if (b == Shape::Sphere) {
-    geom::Separation s = geom::sphere_cylinder(g.center_b, sj.radius, geom::Cylinder{g.center_a, axis_at(ki, t), si.radius, si.half_length});
+    geom::Separation s = geom::sphere_cylinder(g.center_b, sj.radius, geom::Cylinder{g.center_a, body_axis(b_, i, t), si.radius, si.half_length});
     g.sep = geom::Separation{s.distance, s.point_b, s.point_a, -s.normal};
   } else {
-    g.sep = geom::cylinder_cylinder(geom::Cylinder{g.center_a, axis_at(ki, t), si.radius, si.half_length},
-                                    geom::Cylinder{g.center_b, axis_at(kj, t), sj.radius, sj.half_length}, 1e-10,
+    g.sep = geom::cylinder_cylinder(geom::Cylinder{g.center_a, body_axis(b_, i, t), si.radius, si.half_length},
+                                    geom::Cylinder{g.center_b, body_axis(b_, j, t), sj.radius, sj.half_length}, 1e-10,
                                     &g.certified);
   }
   return g;
 }
 
 double Predictor::approach_rate(int i, int j, double t, const ContactGeometry& g) const {
-  const Vec3 ua = surface_velocity(b_.kin[i], t, g.sep.point_a, g.center_a);
-  const Vec3 ub = surface_velocity(b_.kin[j], t, g.sep.point_b, g.center_b);
+  const Vec3 ua = shape_point_velocity(b_, i, t, g.sep.point_a, g.center_a);
+  const Vec3 ub = shape_point_velocity(b_, j, t, g.sep.point_b, g.center_b);
   return g.sep.normal.dot(ub - ua);
 }
 
@@ -227,7 +242,7 @@ double Predictor::plane_value(int i, int j, double t, const ContactGeometry& g, 
   auto support = [&](int b, const Vec3& center, const Vec3& m) {
     const Species& sp = b_.sp(b);
     if (sp.shape == Shape::Sphere) return sp.radius;
-    return geom::cylinder_support(geom::Cylinder{center, axis_at(b_.kin[b], t), sp.radius, sp.half_length}, m);
+    return geom::cylinder_support(geom::Cylinder{center, body_axis(b_, b, t), sp.radius, sp.half_length}, m);
   };
   return n.dot(g.center_b - g.center_a) - support(i, g.center_a, n) - support(j, g.center_b, -n);
 }
@@ -254,8 +269,8 @@ Predictor::RankedNormals Predictor::rank_normals(int i, int j, double t, const C
     ++r.count;
   };
   add(n, 0);
-  const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, axis_at(b_.kin[i], t), b_.sp(i));
-  const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, axis_at(b_.kin[j], t), b_.sp(j));
+  const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, body_axis(b_, i, t), b_.sp(i));
+  const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, body_axis(b_, j, t), b_.sp(j));
   if (fa.has_normal && fa.normal.dot(n) > 0.0) add(fa.normal, 1);
   if (fb.has_normal && -fb.normal.dot(n) > 0.0) add(-fb.normal, 2);
   if (fa.on_rim && fb.on_rim) {
@@ -312,7 +327,7 @@ ContactFrame Predictor::on_axis_planes(int i, int j, double t, const ContactGeom
   // m = n x u / |n x u| (a face contact, n || u, needs no correction).
   auto plane_normal = [&](int b, const Vec3& center, double* offset) {
     if (b_.sp(b).shape != Shape::Linker) return Vec3(Vec3::Zero());
-    const Vec3 m = frame.normal.cross(axis_at(b_.kin[b], t));
+    const Vec3 m = frame.normal.cross(body_axis(b_, b, t));
     const double len = m.norm();
     if (len < 1e-6) return Vec3(Vec3::Zero());
     *offset = (m / len).dot(frame.point - center);
@@ -339,7 +354,7 @@ ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeome
   // line of action meets both axes (no spurious torque about either axis).
   const Species &si = b_.sp(i), &sj = b_.sp(j);
   if (si.shape != Shape::Linker || sj.shape != Shape::Linker) return on_axis_planes(i, j, t, g, frame);
-  const Vec3 ua = axis_at(b_.kin[i], t), ub = axis_at(b_.kin[j], t);
+  const Vec3 ua = body_axis(b_, i, t), ub = body_axis(b_, j, t);
   const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, ua, si);
   const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, ub, sj);
   auto on_side = [](const Vec3& p, const Vec3& c, const Vec3& u, const Species& s) {
@@ -353,11 +368,11 @@ ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeome
     // Rim against an end face: the face normal is exact; the rim point is the
     // rim's extreme point along it (closed form).
     frame.normal = -fb.normal;
-    frame.point = support_point_of(b_.kin[i], si, t, frame.normal);
+    frame.point = support_point_of(b_, i, t, frame.normal);
   } else if (fb.on_rim && on_face(fa, ua)) {
     frame.normal = fa.normal;
     // (shifted into the contact's minimum-image frame)
-    frame.point = support_point_of(b_.kin[j], sj, t, -frame.normal) + (g.center_b - position_at(b_.kin[j], t));
+    frame.point = support_point_of(b_, j, t, -frame.normal) + (g.center_b - body_center(b_, j, t));
   } else if (fa.on_rim && on_side(g.sep.point_b, g.center_b, ub, sj)) {
     const Vec3 P = polish_rim_against_side(g.sep.point_a, rim_centre(g.sep.point_a, g.center_a, ua, si), ua, si.radius,
                                            g.center_b, ub);
@@ -378,18 +393,17 @@ double Predictor::wall_contact(int i, double t, const Vec3& n, Vec3* point) cons
   // (an end face parallel to it: its rim). Every candidate within delta of the
   // support plane is a contact point; the one approaching fastest is used, by
   // prediction and response alike, so the impulse is always repulsive.
-  const Kinematics& k = b_.kin[i];
   const Species& s = b_.sp(i);
-  const Vec3 c = position_at(k, t);
-  const Vec3 p0 = support_point_of(k, s, t, n);
-  double best_rate = n.dot(surface_velocity(k, t, p0, c));
+  const Vec3 c = body_center(b_, i, t);
+  const Vec3 p0 = support_point_of(b_, i, t, n);
+  double best_rate = n.dot(shape_point_velocity(b_, i, t, p0, c));
   Vec3 best = p0;
   if (s.shape == Shape::Linker) {
-    const Vec3 u = axis_at(k, t);
+    const Vec3 u = body_axis(b_, i, t);
     const double level = n.dot(p0);
     auto consider = [&](const Vec3& p) {
       if (level - n.dot(p) > delta_) return;  // not touching
-      const double rate = n.dot(surface_velocity(k, t, p, c));
+      const double rate = n.dot(shape_point_velocity(b_, i, t, p, c));
       if (rate > best_rate) {
         best_rate = rate;
         best = p;
@@ -410,6 +424,7 @@ double Predictor::wall_contact(int i, double t, const Vec3& n, Vec3* point) cons
 
 
 WallHit Predictor::wall(int i, double t, double limit) {
+  if (in_cluster(b_, i)) return wall_generic(i, t, limit);
   const Kinematics& k = b_.kin[i];
   const Species& s = b_.sp(i);
   const double L = box_.length;
@@ -429,21 +444,8 @@ WallHit Predictor::wall(int i, double t, double limit) {
     const double rot = shape_rotation_speed(k, s);
     for (int d = 0; d < 3; ++d) {
       for (int dir : {-1, +1}) {
-        // Distance from the centre to this wall, and its rate of change.
-        const double gap_c = dir > 0 ? L - x[d] : x[d];
-        const double rate_c = dir > 0 ? -k.v[d] : k.v[d];
-        // The centre's distance to the wall is linear in time; the solid can
-        // touch the wall only while it is within R (+ delta): one window.
-        const double reach = R + delta_;
         double sc, end = best.time;
-        if (rate_c < 0.0) {
-          sc = t + std::max(0.0, gap_c - reach) / -rate_c;
-        } else if (gap_c <= reach) {
-          sc = t;
-          if (rate_c > 0.0) end = std::min(end, t + (reach - gap_c) / rate_c);
-        } else {
-          continue;
-        }
+        if (!wall_window(x[d], k.v[d], dir, R + delta_, t, &sc, &end)) continue;
         const double bound = std::abs(k.v[d]) + rot;
         if (bound == 0.0) continue;
         Vec3 n = Vec3::Zero();
@@ -453,7 +455,7 @@ WallHit Predictor::wall(int i, double t, double limit) {
         SeparatingPlane plane;
         plane.t0 = sc;
         plane.offset = dir > 0 ? L - position_at(k, sc)[d] : position_at(k, sc)[d];
-        plane.slope = rate_c;
+        plane.slope = dir > 0 ? -k.v[d] : k.v[d];  // rate of change of the centre's gap
         plane.a = SupportTrack::of(k, s, n, sc);
         plane.b = SupportTrack::constant(0.0);
         const double step_floor = min_step(bound);
@@ -480,6 +482,174 @@ WallHit Predictor::wall(int i, double t, double limit) {
   }
   if (best.time >= limit) best.time = kNever;
   return best;
+}
+
+bool Predictor::wall_window(double x, double v, int dir, double reach, double t, double* start, double* end) const {
+  return wall_window_impl(box_.length, x, v, dir, reach, t, start, end);
+}
+
+double Predictor::advance_generic(int i, int j, double t, double limit) {
+  const Vec3 dx = box_.min_image(reference_center(b_, j, t) - reference_center(b_, i, t));
+  const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
+  double enter, leave;
+  if (!sphere_window(dx, dv, reference_radius(b_, i) + reference_radius(b_, j) + delta_, &enter, &leave)) return kNever;
+  ++counts_.cluster_pair_searches;
+  double s = t + enter;
+  const double end = std::min(limit, t + leave);
+  // Any two surface points approach at most at this rate (core/pose.hpp).
+  const double bound = dv.norm() + rotation_bound(b_, i) + rotation_bound(b_, j);
+  if (bound == 0.0) return kNever;
+  for (int step = 0; step < kMaxSteps; ++step) {
+    if (s >= end) return kNever;
+    ++ca_iterations_;
+    ++counts_.cluster_pair;
+    const ContactGeometry g = contact_geometry(i, j, s);
+    const double d = g.sep.distance;
+    if (d <= delta_ && approach_rate(i, j, s, g) < 0.0) return s;
+    if (d <= 0.0) {
+      s += min_step(bound);
+      continue;
+    }
+    const double target = 0.5 * std::min(d, delta_);
+    double proven = d;
+    if (!g.certified) {
+      // An unproven distance may be too large: step from a separating plane.
+      const RankedNormals r = rank_normals(i, j, s, g);
+      proven = r.value[r.best];
+    }
+    s += std::max((proven - target) / bound, min_step(bound));
+  }
+  failed_ = true;
+  return kNever;
+}
+
+WallHit Predictor::wall_generic(int i, double t, double limit) {
+  const double L = box_.length;
+  const Vec3 X = reference_center(b_, i, t);
+  const Vec3& V = reference_velocity(b_, i);
+  const double reach = reference_radius(b_, i) + delta_;
+  const double rot = rotation_bound(b_, i);
+  const Species& sp = b_.sp(i);
+  WallHit best;
+  best.time = limit;
+  for (int d = 0; d < 3; ++d) {
+    for (int dir : {-1, +1}) {
+      double sc, end = best.time;
+      if (!wall_window(X[d], V[d], dir, reach, t, &sc, &end)) continue;
+      const double bound = std::abs(V[d]) + rot;
+      if (bound == 0.0) continue;
+      Vec3 n = Vec3::Zero();
+      n[d] = dir;
+      const double step_floor = min_step(bound);
+      for (int step = 0; sc < end; ++step) {
+        if (step == kMaxSteps) {
+          failed_ = true;
+          break;
+        }
+        ++ca_iterations_;
+        ++counts_.cluster_wall;
+        const Vec3 c = body_center(b_, i, sc);
+        const double support =
+            sp.shape == Shape::Sphere ? sp.radius : geom::cylinder_support(geom::Cylinder{c, body_axis(b_, i, sc), sp.radius, sp.half_length}, n);
+        const double g = (dir > 0 ? L - c[d] : c[d]) - support;
+        if (g <= delta_ && wall_contact(i, sc, n, nullptr) < 0.0) {
+          best = {sc, d, dir};
+          break;
+        }
+        if (g <= 0.0) {
+          sc += step_floor;
+          continue;
+        }
+        sc += std::max((g - 0.5 * std::min(g, delta_)) / bound, step_floor);
+      }
+    }
+  }
+  if (best.time >= limit) best.time = kNever;
+  return best;
+}
+
+double Predictor::leave_cell(int i, double t, double limit, const Vec3& lo, double w) {
+  const double bound = reference_velocity(b_, i).norm() + point_rotation_bound(b_, i, 0.0);
+  if (bound == 0.0) return kNever;
+  // Fires once the centre is more than half the slack outside (so a centre
+  // resting on a face does not fire again and again), at most 3/4 of it out.
+  // The slack also sets the smallest step (slack / 4 over the speed bound), so
+  // a centre gliding along a face costs a bounded number of steps.
+  const double eps = cell_slack();
+  const double floor_step = 0.25 * eps / bound;
+  double s = t;
+  for (int step = 0; step < kMaxSteps && s < limit; ++step) {
+    ++counts_.cell;
+    Vec3 x = body_center(b_, i, s);
+    if (box_.periodic)
+      for (int d = 0; d < 3; ++d) x[d] -= box_.length * std::floor(x[d] / box_.length);
+    double f = kNever;  // distance to the nearest face, negative outside
+    for (int d = 0; d < 3; ++d) f = std::min({f, x[d] - lo[d], lo[d] + w - x[d]});
+    if (f <= -0.5 * eps) return s;
+    s += std::max((f + 0.5 * eps) / bound, floor_step);
+  }
+  if (s < limit) failed_ = true;
+  return kNever;
+}
+
+double Predictor::capture_gap(int l, int end, int s, double t, double rc) const {
+  const double h = b_.sp(l).half_length;
+  const Vec3 p = body_center(b_, l, t) + (end == 0 ? h : -h) * body_axis(b_, l, t);
+  return box_.min_image(body_center(b_, s, t) - p).norm() - b_.sp(s).radius - rc;
+}
+
+double Predictor::capture(int l, int end, int s, double t, double limit, double rc) {
+  const double h = b_.sp(l).half_length;
+  const double rs = b_.sp(s).radius;
+  // Window: the end point stays within h (+ reach) of l's reference point, the
+  // sphere's centre within its reach of its own.
+  const double rl = in_cluster(b_, l) ? b_.reach[l] + h : h;
+  const double rsph = in_cluster(b_, s) ? b_.reach[s] : 0.0;
+  const Vec3 dx = box_.min_image(reference_center(b_, s, t) - reference_center(b_, l, t));
+  const Vec3 dv = reference_velocity(b_, s) - reference_velocity(b_, l);
+  double enter, leave;
+  if (!sphere_window(dx, dv, rl + rsph + rs + rc + 2.0 * delta_, &enter, &leave)) return kNever;
+  ++counts_.capture_searches;
+  const double stop = std::min(limit, t + leave);
+  const double bound = dv.norm() + point_rotation_bound(b_, l, h) + point_rotation_bound(b_, s, 0.0);
+  if (bound == 0.0) return kNever;
+  const double floor_step = min_step(bound);
+  double x = t;
+  double g = capture_gap(l, end, s, x, rc);
+  // Inside the shell or its firing band: first find the way out (to beyond
+  // 2 delta, a hysteresis that keeps a failed capture from firing again).
+  for (int step = 0; g <= (step == 0 ? delta_ : 2.0 * delta_); ++step) {
+    if (step == kMaxSteps) {
+      failed_ = true;
+      return kNever;
+    }
+    x += std::max((2.0 * delta_ - g) / bound, floor_step);
+    if (x >= stop) return kNever;
+    ++ca_iterations_;
+    ++counts_.capture;
+    g = capture_gap(l, end, s, x, rc);
+  }
+  x = std::max(x, t + enter);
+  for (int step = 0; step < kMaxSteps; ++step) {
+    if (x >= stop) return kNever;
+    ++ca_iterations_;
+    ++counts_.capture;
+    g = capture_gap(l, end, s, x, rc);
+    if (g <= delta_) {
+      // In the firing band: a capture if the gap is closing.
+      const Vec3 cl = body_center(b_, l, x);
+      const Vec3 p = cl + (end == 0 ? h : -h) * body_axis(b_, l, x);
+      const Vec3 cs = p + box_.min_image(body_center(b_, s, x) - p);
+      const Vec3 n = (cs - p).normalized();
+      const double rate = n.dot(shape_point_velocity(b_, s, x, cs, cs) - shape_point_velocity(b_, l, x, p, cl));
+      if (rate < 0.0) return x;
+      x += floor_step;
+      continue;
+    }
+    x += std::max((g - 0.5 * delta_) / bound, floor_step);
+  }
+  failed_ = true;
+  return kNever;
 }
 
 }  // namespace ringsim

@@ -81,6 +81,24 @@ class Predictor {
   // Earliest wall contact of i in [t, limit) (reflective boxes).
   WallHit wall(int i, double t, double limit);
 
+  // Earliest time in [t, limit) at which the centre of cluster member i leaves
+  // the cell [lo, lo + w]^3 (periodic boxes: its wrapped centre); kNever if none.
+  // Fires between 1/2 and 3/4 of cell_slack() outside a face.
+  double leave_cell(int i, double t, double limit, const Vec3& lo, double w);
+  // How far a member's centre may stray outside its cell; the cells are made
+  // this much wider on each side (Simulation), so neighbour search stays exact.
+  static constexpr double cell_slack() { return 0.01; }
+
+  // Capture (MODEL.md, "Capture and bond formation"): earliest time in
+  // [t, limit) at which the gap g = |p - x_S| - r_S between end `end` of
+  // linker l (p = x + h u for end 0, x - h u for end 1) and sphere s falls
+  // through `rc`, i.e. g <= rc + delta while decreasing. A capture is armed only
+  // from outside the shell: a pair that starts inside (g <= rc + delta, e.g.
+  // after a capture that failed the rules) must first leave it (g > rc + 2 delta).
+  double capture(int l, int end, int s, double t, double limit, double rc);
+  // Capture gap g - rc at t (minimum image).
+  double capture_gap(int l, int end, int s, double t, double rc) const;
+
   ContactGeometry contact_geometry(int i, int j, double t) const;
   // Contact normal (A to B) and point for the impulse: among the solver's
   // normal and the well-conditioned feature normals (face axis, lateral radial
@@ -98,6 +116,12 @@ class Predictor {
   double wall_contact(int i, double t, const Vec3& n, Vec3* point) const;
 
   std::uint64_t ca_iterations() const { return ca_iterations_; }
+  // Distance evaluations by kind of search (all included in ca_iterations).
+  struct SearchCounts {
+    std::uint64_t capture = 0, cluster_pair = 0, cluster_wall = 0, cell = 0;  // evaluations
+    std::uint64_t capture_searches = 0, cluster_pair_searches = 0;             // searches started
+  };
+  const SearchCounts& search_counts() const { return counts_; }
   long plane_evaluations() const { return plane_evaluations_; }
   bool failed() const { return failed_; }
 
@@ -111,6 +135,11 @@ class Predictor {
   double min_step(double bound) const { return delta_ / (100.0 * bound); }
   double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
   double advance_pair(int i, int j, double t, double limit);
+  bool wall_window(double x, double v, int dir, double reach, double t, double* start, double* end) const;
+  // Pairs and walls with a cluster member: plain conservative advancement with
+  // the reference-motion bounds of core/pose.hpp.
+  double advance_generic(int i, int j, double t, double limit);
+  WallHit wall_generic(int i, double t, double limit);
   // Candidate normals at a contact geometry, with their plane values: the
   // solver's normal, the feature normals of i (owner 1) and of j (owner 2), the
   // rim-tangent cross product (owner 0). best: the largest value; feature: the
@@ -130,6 +159,7 @@ class Predictor {
   Box box_;
   double delta_;
   std::uint64_t ca_iterations_ = 0;
+  SearchCounts counts_;
   long plane_evaluations_ = 0;
   bool failed_ = false;
 };

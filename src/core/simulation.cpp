@@ -3,8 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <tuple>
 
+#include "core/bond_rules.hpp"
+#include "core/cluster.hpp"
 #include "core/contact.hpp"
+#include "core/pose.hpp"
 #include "core/motion.hpp"
 #include "core/validation.hpp"
 
@@ -14,6 +18,8 @@ const char* to_string(Termination t) {
   switch (t) {
     case Termination::Running: return "running";
     case Termination::TimeLimit: return "t_max";
+    case Termination::SteadyState: return "steady_state";
+    case Termination::NoBondPossible: return "no_bond_possible";
     case Termination::EventBudget: return "event_budget";
     case Termination::Error: return "error";
   }
@@ -26,16 +32,38 @@ double interaction_range(const BodyStore& b) {
   for (int i = 0; i < b.size(); ++i) r = std::max(r, b.sp(i).bounding_radius);
   return 2.0 * r;
 }
+
+int count_spheres(const BodyStore& b) {
+  int n = 0;
+  while (n < b.size() && b.shape[n] == Shape::Sphere) ++n;
+  for (int i = n; i < b.size(); ++i)
+    if (b.shape[i] == Shape::Sphere)
+      throw std::invalid_argument("bonding needs body ids ordered spheres first, then linkers");
+  return n;
+}
 }  // namespace
+
+double Simulation::capture_range() const {
+  // Largest centre distance of a linker and a sphere at capture: h + r_S + r_c.
+  if (!params_.bonding.enabled) return 0.0;
+  const Species &s = bodies_.species[0], &l = bodies_.species[1];
+  return l.half_length + s.radius + params_.bonding.capture_distance;
+}
 
 Simulation::Simulation(const SimParams& params, BodyStore bodies)
     : params_(params),
       bodies_(std::move(bodies)),
       box_{params.geometry.box_length, params.geometry.boundary == Boundary::Periodic},
       queue_(make_queue(params.run.queue)),
-      predictor_(bodies_, box_, params.run.contact_tolerance) {
+      predictor_(bodies_, box_, params.run.contact_tolerance),
+      n_spheres_(count_spheres(bodies_)),
+      graph_(n_spheres_, bodies_.size() - n_spheres_),
+      monitor_(params.run.sample_interval, static_cast<std::size_t>(params.run.mser_min_samples),
+               static_cast<std::size_t>(params.run.mser_check_every), static_cast<std::size_t>(params.run.mser_batch)) {
   const int n = bodies_.size();
-  const double range = interaction_range(bodies_) + 2.0 * params.run.contact_tolerance;
+  // Cluster members (bonding only) may stray cell_slack outside their cell.
+  const double range = std::max(interaction_range(bodies_), capture_range()) + 2.0 * params.run.contact_tolerance +
+                       (params.bonding.enabled ? 2.0 * Predictor::cell_slack() : 0.0);
   if (box_.periodic && 2.0 * range >= box_.length)
     throw std::invalid_argument("geometry.box_length = " + std::to_string(box_.length) + ": must be > " +
                                 std::to_string(2.0 * range) +
@@ -45,22 +73,49 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   events_.assign(n, Event{});
   bodies_.counter.assign(n, 0);
   bodies_.last_collision.assign(n, -kNever);
+  bodies_.group.assign(n, -1);
+  bodies_.offset.assign(n, Vec3::Zero());
+  bodies_.body_axis.assign(n, Vec3::UnitZ());
+  bodies_.reach.assign(n, 0.0);
+  bodies_.clusters.clear();
+  sphere_bonds_.assign(n_spheres_, {});
+  memo_.assign(n, {});
+  end_sphere_.assign(2 * (n - n_spheres_), -1);
   for (int i = 0; i < n; ++i) grid_.insert(i, bodies_.kin[i].x);
+  monitor_.set(0.0, graph_.N_t());
+  if (params_.bonding.enabled) check_initial_captures();
   queue_->reset(n);
   for (int i = 0; i < n; ++i) predict(i, 0.0);
+  if (params_.bonding.enabled && termination_ == Termination::Running && !bond_possible())
+    termination_ = Termination::NoBondPossible;
 }
 
 Simulation::~Simulation() = default;
 
 void Simulation::predict(int i, double t) {
-  const Kinematics& k = bodies_.kin[i];
-  const Vec3 xi = position_at(k, t);
-  const CellGrid::Exit ex = grid_.exit_time(grid_.cell_of_body(i), xi, k.v);
+  const int gi = bodies_.group[i];
+  const Vec3 xi = reference_center(bodies_, i, t);
   Event best;
-  best.time = t + ex.dt;
   best.type = EventType::CellCross;
-  best.dim = static_cast<std::int8_t>(ex.dim);
-  best.dir = static_cast<std::int8_t>(ex.dir);
+  if (gi < 0) {
+    const Kinematics& k = bodies_.kin[i];
+    const CellGrid::Exit ex = grid_.exit_time(grid_.cell_of_body(i), xi, k.v);
+    best.time = t + ex.dt;
+    best.dim = static_cast<std::int8_t>(ex.dim);
+    best.dir = static_cast<std::int8_t>(ex.dir);
+  } else {
+    // A member's centre turns with its cluster: find when it leaves its cell,
+    // looking ahead at most the time to cross one cell at the largest speed
+    // (then a relocation event re-checks), which also bounds every search below.
+    const double w = grid_.cell_width();
+    const auto cc = grid_.coords(grid_.cell_of_body(i));
+    const Vec3 lo(cc[0] * w, cc[1] * w, cc[2] * w);
+    const double speed = reference_velocity(bodies_, i).norm() + point_rotation_bound(bodies_, i, 0.0);
+    const double horizon = speed > 0.0 ? t + w / speed : kNever;
+    best.time = std::min(horizon, predictor_.leave_cell(i, t, horizon, lo, w));
+    best.dim = -1;
+    best.dir = 0;
+  }
   if (!box_.periodic) {
     const WallHit w = predictor_.wall(i, t, best.time);
     if (w.time < best.time) {
@@ -83,9 +138,13 @@ void Simulation::predict(int i, double t) {
   // horizon of the rest before they cost anything.
   candidates_.clear();
   const bool sphere_i = bodies_.shape[i] == Shape::Sphere;
+  const bool bonding = params_.bonding.enabled;
+  capture_partners_.clear();
   grid_.for_each_near(grid_.cell_of_body(i), [&](int j) {
     if (j == i) return;
-    if (sphere_i && bodies_.shape[j] == Shape::Sphere) {
+    if (gi >= 0 && bodies_.group[j] == gi) return;  // one rigid body: no relative motion
+    if (bonding && sphere_i != (bodies_.shape[j] == Shape::Sphere)) capture_partners_.push_back(j);
+    if (sphere_i && bodies_.shape[j] == Shape::Sphere && gi < 0 && bodies_.group[j] < 0) {
       consider(j, predictor_.pair(i, j, t, best.time, xi));
       return;
     }
@@ -100,15 +159,96 @@ void Simulation::predict(int i, double t) {
     if (enter < best.time) candidates_.push_back({enter, j});
   });
   std::sort(candidates_.begin(), candidates_.end());
+  memo_scratch_.clear();
   for (const auto& [enter, j] : candidates_) {
     if (enter >= best.time) break;
-    consider(j, predictor_.pair(i, j, t, best.time, xi));
+    consider(j, memo_pair(i, j, t, best.time, xi));
+  }
+  memo_[i].swap(memo_scratch_);
+  // Captures: only pairs that could still bond (a free end, a sphere with a
+  // free valency, in different groups).
+  const BondingParams& bp = params_.bonding;
+  for (int j : capture_partners_) {
+    const int l = sphere_i ? j : i, s = sphere_i ? i : j;
+    if (static_cast<int>(sphere_bonds_[s].size()) >= bp.sphere_valency || bp.end_valency < 1) continue;
+    for (int e = 0; e < 2; ++e) {
+      if (end_sphere(l, e) >= 0) continue;
+      const double tc = predictor_.capture(l, e, s, t, best.time, bp.capture_distance);
+      if (tc < best.time) {
+        best.time = tc;
+        best.type = EventType::Capture;
+        best.partner = j;
+        best.partner_counter = bodies_.counter[j];
+        best.dim = static_cast<std::int8_t>(e);
+      }
+    }
   }
   events_[i] = best;
   queue_->update(i, best.time);
 }
 
+double Simulation::memo_pair(int i, int j, double t, double limit, const Vec3& xi) {
+  const std::uint32_t ci = bodies_.counter[i], cj = bodies_.counter[j];
+  const PairMemo* m = nullptr;
+  for (const PairMemo& e : memo_[i])
+    if (e.partner == j && e.counter_self == ci && e.counter_partner == cj) m = &e;
+  if (!m)
+    for (const PairMemo& e : memo_[j])
+      if (e.partner == i && e.counter_self == cj && e.counter_partner == ci) m = &e;
+  PairMemo out{j, ci, cj, t, limit, false};
+  double tc = kNever;
+  if (m && t >= m->from && (!m->hit || m->until >= t)) {
+    out.from = m->from;
+    if (m->hit) {
+      // The first contact after m->from is m->until, so also after t.
+      tc = m->until < limit ? m->until : kNever;
+      out.until = m->until;
+      out.hit = true;
+    } else if (m->until >= limit) {
+      out.until = m->until;  // proven free past the horizon
+    } else {
+      ++stats_.memo_resumed;
+      tc = predictor_.pair(i, j, std::max(t, m->until), limit, reference_center(bodies_, i, std::max(t, m->until)));
+    }
+  } else {
+    tc = predictor_.pair(i, j, t, limit, xi);
+  }
+  if (tc < kNever) {
+    out.until = tc;
+    out.hit = true;
+  }
+  memo_scratch_.push_back(out);
+  return tc;
+}
+
+void Simulation::bump(int i, double t) {
+  const int g = bodies_.group[i];
+  if (g < 0) {
+    ++bodies_.counter[i];
+    bodies_.last_collision[i] = t;
+    return;
+  }
+  for (int m : bodies_.clusters[g].members) {
+    ++bodies_.counter[m];
+    bodies_.last_collision[m] = t;
+  }
+}
+
+void Simulation::predict_group(int i, double t) {
+  const int g = bodies_.group[i];
+  if (g < 0) {
+    predict(i, t);
+    return;
+  }
+  for (int m : bodies_.clusters[g].members) predict(m, t);
+}
+
 void Simulation::apply_impulse(int i, const Vec3& J, const Vec3& arm) {
+  const int g = bodies_.group[i];
+  if (g >= 0) {
+    cluster_impulse(bodies_.clusters[g], box_, now_, J, arm);
+    return;
+  }
   Kinematics& k = bodies_.kin[i];
   const Species& s = bodies_.sp(i);
   k.v += J / s.mass;
@@ -116,16 +256,26 @@ void Simulation::apply_impulse(int i, const Vec3& J, const Vec3& arm) {
   set_angular_velocity(k, s, omega + inverse_inertia(s, k.axis) * arm.cross(J));
 }
 
+namespace {
+// The side of a contact that body i presents: what moves (the body or its
+// cluster), with the arm from its centre of mass to the contact point p.
+ContactSide contact_side(const BodyStore& b, int i, double t, const Vec3& p, const Vec3& center) {
+  return ContactSide{1.0 / moving_mass(b, i), moving_inverse_inertia(b, i, t), p - moving_center(b, i, t, center),
+                     reference_velocity(b, i), body_omega(b, i, t)};
+}
+}  // namespace
+
 void Simulation::process_collision(int i, int j, double t) {
-  advance(bodies_.kin[i], t);
-  advance(bodies_.kin[j], t);
+  for (int b : {i, j}) {
+    if (bodies_.group[b] < 0) advance(bodies_.kin[b], t);
+    else rebase_cluster(bodies_.clusters[bodies_.group[b]], box_, t);
+  }
   const ContactGeometry g = predictor_.contact_geometry(i, j, t);
   const ContactFrame frame = predictor_.contact_frame(i, j, t, g);
   const Vec3& p = frame.point;
   const Species &si = bodies_.sp(i), &sj = bodies_.sp(j);
-  const Kinematics &ki = bodies_.kin[i], &kj = bodies_.kin[j];
-  ContactSide a{1.0 / si.mass, inverse_inertia(si, ki.axis), p - g.center_a, ki.v, ki.precession + ki.spin * ki.axis};
-  ContactSide b{1.0 / sj.mass, inverse_inertia(sj, kj.axis), p - g.center_b, kj.v, kj.precession + kj.spin * kj.axis};
+  const ContactSide a = contact_side(bodies_, i, t, p, g.center_a);
+  const ContactSide b = contact_side(bodies_, j, t, p, g.center_b);
   const ContactParams& cp = params_.contact;
   ContactLaw law{combine(cp.restitution_rule, si.restitution, sj.restitution),
                  combine(cp.friction_rule, si.static_friction, sj.static_friction),
@@ -142,23 +292,23 @@ void Simulation::process_collision(int i, int j, double t) {
   apply_impulse(j, r.impulse, b.arm);
   if (r.mode == ContactMode::Stick) ++stats_.stick;
   if (r.mode == ContactMode::Slide) ++stats_.slide;
-  ++bodies_.counter[i];
-  ++bodies_.counter[j];
-  bodies_.last_collision[i] = bodies_.last_collision[j] = t;
+  bump(i, t);
+  bump(j, t);
   ++stats_.collisions;
-  predict(i, t);
-  predict(j, t);
+  predict_group(i, t);
+  predict_group(j, t);
 }
 
 void Simulation::process_wall(int i, const Event& ev, double t) {
-  advance(bodies_.kin[i], t);
-  Kinematics& k = bodies_.kin[i];
+  const int gi = bodies_.group[i];
+  if (gi < 0) advance(bodies_.kin[i], t);
+  else rebase_cluster(bodies_.clusters[gi], box_, t);
   const Species& s = bodies_.sp(i);
   Vec3 n = Vec3::Zero();
   n[ev.dim] = ev.dir;  // from the body towards the wall
   Vec3 p;
   predictor_.wall_contact(i, t, n, &p);
-  ContactSide body{1.0 / s.mass, inverse_inertia(s, k.axis), p - k.x, k.v, k.precession + k.spin * k.axis};
+  const ContactSide body = contact_side(bodies_, i, t, p, body_center(bodies_, i, t));
   ContactSide wall{0.0, Mat3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
   const ContactParams& cp = params_.contact;
   ContactLaw law{combine(cp.restitution_rule, s.restitution, cp.restitution_wall),
@@ -172,22 +322,208 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
   apply_impulse(i, -r.impulse, body.arm);
   ext_impulse_ -= r.impulse;
   ext_angular_ += p.cross(-r.impulse);
-  ++bodies_.counter[i];
-  bodies_.last_collision[i] = t;
+  bump(i, t);
   ++stats_.wall_collisions;
-  predict(i, t);
+  predict_group(i, t);
 }
 
 void Simulation::process_cell(int i, const Event& ev, double t) {
-  advance(bodies_.kin[i], t);
-  bool wrapped = false;
-  const int next = grid_.step(grid_.cell_of_body(i), ev.dim, ev.dir, &wrapped);
-  if (next >= 0) {
-    if (wrapped) bodies_.kin[i].x[ev.dim] -= ev.dir * box_.length;
-    grid_.move(i, next);
+  if (ev.dim < 0) {
+    // A cluster member: re-file it under the cell that holds its centre.
+    Vec3 x = body_center(bodies_, i, t);
+    if (box_.periodic)
+      for (int d = 0; d < 3; ++d) x[d] -= box_.length * std::floor(x[d] / box_.length);
+    const int c = grid_.locate(x);
+    if (c != grid_.cell_of_body(i)) grid_.move(i, c);
+  } else {
+    advance(bodies_.kin[i], t);
+    bool wrapped = false;
+    const int next = grid_.step(grid_.cell_of_body(i), ev.dim, ev.dir, &wrapped);
+    if (next >= 0) {
+      if (wrapped) bodies_.kin[i].x[ev.dim] -= ev.dir * box_.length;
+      grid_.move(i, next);
+    }
   }
   ++stats_.cell_crossings;
   predict(i, t);
+}
+
+// ---- bonding -----------------------------------------------------------------
+
+bool Simulation::rules_allow(int s, int l, int end, double t) {
+  const BondingParams& bp = params_.bonding;
+  // 1. valency: a free end, a sphere below its valency.
+  if (bp.end_valency < 1 || end_sphere(l, end) >= 0 || static_cast<int>(sphere_bonds_[s].size()) >= bp.sphere_valency) {
+    ++stats_.rejected_valency;
+    return false;
+  }
+  const Vec3 u = body_axis(bodies_, l, t);
+  const Vec3 out = outward_axis(u, end);
+  // 2. bond angle at the sphere, against every linker already bonded to it.
+  if (bp.angle_filter) {
+    for (const auto& [l2, e2] : sphere_bonds_[s]) {
+      if (!angle_ok(bond_angle_deg(out, outward_axis(body_axis(bodies_, l2, t), e2)), bp)) {
+        ++stats_.rejected_angle;
+        return false;
+      }
+    }
+  }
+  if (!bp.coplanarity_filter) return true;
+  // 3. coplanarity, for every linker whose two ends would both be bonded to
+  // spheres that carry a second linker: the dihedral about its axis between
+  // the neighbouring linkers' outward axes (MODEL.md).
+  // The dihedral about linker c (axis uc) with neighbour axis n_at[e] at its end e.
+  auto planar = [&](const Vec3& uc, const Vec3& n_end0, const Vec3& n_end1) {
+    return planarity_ok(dihedral_deg(uc, n_end0, n_end1), bp);
+  };
+  // (a) the new linker l: neighbours at s (this end) and at the sphere on its other end.
+  const int s_other = end_sphere(l, 1 - end);
+  if (s_other >= 0) {
+    for (const auto& [la, ea] : sphere_bonds_[s]) {
+      const Vec3 na = outward_axis(body_axis(bodies_, la, t), ea);
+      for (const auto& [lb, eb] : sphere_bonds_[s_other]) {
+        if (lb == l) continue;
+        const Vec3 nb = outward_axis(body_axis(bodies_, lb, t), eb);
+        if (!(end == 0 ? planar(u, na, nb) : planar(u, nb, na))) {
+          ++stats_.rejected_coplanarity;
+          return false;
+        }
+      }
+    }
+  }
+  // (b) each linker c already at s: the new linker becomes its neighbour at s.
+  for (const auto& [c, ec] : sphere_bonds_[s]) {
+    const int s3 = end_sphere(c, 1 - ec);
+    if (s3 < 0) continue;
+    const Vec3 uc = body_axis(bodies_, c, t);
+    for (const auto& [l3, e3] : sphere_bonds_[s3]) {
+      if (l3 == c) continue;
+      const Vec3 n3 = outward_axis(body_axis(bodies_, l3, t), e3);
+      if (!(ec == 0 ? planar(uc, out, n3) : planar(uc, n3, out))) {
+        ++stats_.rejected_coplanarity;
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+void Simulation::form_bond(int s, int l, int end, double t) {
+  graph_.add_bond(s, l, end, t);
+  sphere_bonds_[s].push_back({l, end});
+  end_sphere_[2 * (l - n_spheres_) + end] = s;
+  ++stats_.bonds;
+  monitor_.set(t, graph_.N_t());
+  const int gs = bodies_.group[s], gl = bodies_.group[l];
+  if (gs >= 0 && gs == gl) return;  // a ring closing inside one cluster
+  // Rigid bond: the two groups become one rigid body. Pairs the merge puts
+  // inside one cluster are checked now (this is how a rigid ring closes).
+  auto members = [&](int b) {
+    const int g = bodies_.group[b];
+    return g < 0 ? std::vector<int>{b} : bodies_.clusters[g].members;
+  };
+  const std::vector<int> side_s = members(s), side_l = members(l);
+  const int g = merge_groups(bodies_, box_, s, l, t);
+  std::vector<std::tuple<int, int, int>> closures;  // (sphere, linker, end)
+  const double rc = params_.bonding.capture_distance;
+  const double band = params_.run.contact_tolerance;
+  auto scan = [&](const std::vector<int>& from, const std::vector<int>& to) {
+    for (int a : from) {
+      if (bodies_.shape[a] != Shape::Sphere) continue;
+      for (int b : to) {
+        if (bodies_.shape[b] != Shape::Linker) continue;
+        for (int e = 0; e < 2; ++e)
+          if (end_sphere(b, e) < 0 && predictor_.capture_gap(b, e, a, t, rc) <= band) closures.emplace_back(a, b, e);
+      }
+    }
+  };
+  scan(side_s, side_l);
+  scan(side_l, side_s);
+  std::sort(closures.begin(), closures.end());
+  for (const auto& [cs, cl, ce] : closures) {
+    if (rules_allow(cs, cl, ce, t)) {
+      ++stats_.closure_bonds;
+      graph_.add_bond(cs, cl, ce, t);
+      sphere_bonds_[cs].push_back({cl, ce});
+      end_sphere_[2 * (cl - n_spheres_) + ce] = cs;
+      ++stats_.bonds;
+    }
+  }
+  monitor_.set(t, graph_.N_t());
+  if (box_.periodic) {
+    double extent = 0.0;
+    for (int m : bodies_.clusters[g].members) extent = std::max(extent, reference_radius(bodies_, m));
+    if (4.0 * extent > box_.length) {
+      termination_ = Termination::Error;
+      error_ = "a rigid cluster reached a radius of " + std::to_string(extent) + " at t = " + std::to_string(t) +
+               ", more than a quarter of the periodic box (geometry.box_length = " + std::to_string(box_.length) +
+               "); minimum images would be ambiguous: use a larger box or reflective walls";
+    }
+  }
+}
+
+void Simulation::process_capture(int i, const Event& ev, double t) {
+  const int j = ev.partner;
+  const int l = bodies_.shape[i] == Shape::Linker ? i : j, s = l == i ? j : i;
+  ++stats_.captures;
+  if (rules_allow(s, l, ev.dim, t)) {
+    for (int b : {s, l}) {
+      if (bodies_.group[b] < 0) advance(bodies_.kin[b], t);
+      else rebase_cluster(bodies_.clusters[bodies_.group[b]], box_, t);
+    }
+    form_bond(s, l, ev.dim, t);
+    bump(l, t);  // l and s now share a cluster: every member
+    predict_group(l, t);
+    if (!bond_possible()) termination_ = Termination::NoBondPossible;
+  } else {
+    // Nothing changes; the pair may capture again only after leaving the shell.
+    predict(i, t);
+  }
+}
+
+void Simulation::check_initial_captures() {
+  // MODEL.md: rules are checked at t = 0 for pairs already inside the shell.
+  const double rc = params_.bonding.capture_distance;
+  std::vector<std::tuple<int, int, int>> inside;
+  for (int s = 0; s < n_spheres_; ++s) {
+    grid_.for_each_near(grid_.cell_of_body(s), [&](int l) {
+      if (bodies_.shape[l] != Shape::Linker) return;
+      for (int e = 0; e < 2; ++e)
+        if (predictor_.capture_gap(l, e, s, 0.0, rc) <= 0.0) inside.emplace_back(s, l, e);
+    });
+  }
+  std::sort(inside.begin(), inside.end());
+  for (const auto& [s, l, e] : inside) {
+    if (end_sphere(l, e) >= 0) continue;
+    ++stats_.captures;
+    if (rules_allow(s, l, e, 0.0)) form_bond(s, l, e, 0.0);
+  }
+}
+
+bool Simulation::bond_possible() const {
+  // A bond needs a free end and a sphere below its valency in *different*
+  // groups (a rigid cluster never closes a ring later).
+  const BondingParams& bp = params_.bonding;
+  if (bp.end_valency < 1) return false;
+  // Groups are keyed by cluster id, free bodies by -1 - id.
+  int first_group = 0;
+  bool seen = false, spread = false, any_sphere = false, any_end = false;
+  auto note = [&](int b) {
+    const int key = bodies_.group[b] >= 0 ? bodies_.group[b] : -1 - b;
+    if (!seen) first_group = key, seen = true;
+    else if (key != first_group) spread = true;
+  };
+  for (int s = 0; s < n_spheres_; ++s)
+    if (static_cast<int>(sphere_bonds_[s].size()) < bp.sphere_valency) {
+      any_sphere = true;
+      note(s);
+    }
+  for (int l = n_spheres_; l < bodies_.size(); ++l)
+    if (end_sphere(l, 0) < 0 || end_sphere(l, 1) < 0) {
+      any_end = true;
+      note(l);
+    }
+  return any_sphere && any_end && spread;
 }
 
 bool Simulation::step() {
@@ -197,9 +533,17 @@ bool Simulation::step() {
   if (termination_ != Termination::Running) return false;
   const int i = queue_->top();
   const Event ev = events_[i];
-  if (ev.time > params_.run.t_max) {
+  const double t_end = params_.run.t_max;
+  if (params_.bonding.enabled && params_.run.steady_state && monitor_.advance(std::min(ev.time, t_end))) {
+    // N_t(t) is steady (MSER): the state is unchanged since the last event,
+    // so the run ends at the last sample used.
+    termination_ = Termination::SteadyState;
+    now_ = std::max(now_, monitor_.steady_time());
+    return false;
+  }
+  if (ev.time > t_end) {
     termination_ = Termination::TimeLimit;
-    now_ = params_.run.t_max;
+    now_ = t_end;
     return false;
   }
   if (params_.run.max_events > 0 && stats_.events >= params_.run.max_events) {
@@ -209,13 +553,15 @@ bool Simulation::step() {
   now_ = ev.time;
   switch (ev.type) {
     case EventType::Collision:
+    case EventType::Capture:
       if (bodies_.counter[ev.partner] != ev.partner_counter) {
         ++stats_.stale;
         predict(i, ev.time);
         return true;
       }
       if (log_on_) log_.push_back({ev.time, ev.type, i, ev.partner});
-      process_collision(i, ev.partner, ev.time);
+      if (ev.type == EventType::Collision) process_collision(i, ev.partner, ev.time);
+      else process_capture(i, ev, ev.time);
       break;
     case EventType::Wall:
       if (log_on_) log_.push_back({ev.time, ev.type, i, ev.dim * 2 + (ev.dir > 0)});
@@ -227,7 +573,7 @@ bool Simulation::step() {
       break;
     case EventType::None:
       termination_ = Termination::TimeLimit;  // nothing can ever happen
-      now_ = params_.run.t_max;
+      now_ = t_end;
       return false;
   }
   ++stats_.events;
@@ -249,7 +595,11 @@ Termination Simulation::run() {
 }
 
 void Simulation::synchronize(double t) {
-  for (auto& k : bodies_.kin) advance(k, t);
+  for (int i = 0; i < bodies_.size(); ++i)
+    if (bodies_.group[i] < 0) advance(bodies_.kin[i], t);
+  for (Cluster& c : bodies_.clusters)
+    if (c.alive) rebase_cluster(c, box_, t);
+  snapshot_members(bodies_, box_, t);
 }
 
 }  // namespace ringsim

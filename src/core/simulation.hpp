@@ -8,8 +8,16 @@
 //  3. otherwise advance the involved bodies to the event time, apply the
 //     impulse (or move to the new cell), bump their impulse counters;
 //  4. re-predict the involved bodies against their neighbourhoods;
-//  5. validation mode: check every invariant at the event time.
-// Prediction never changes state; state changes only in step 3.
+//  5. a capture (a linker end entering a sphere's capture shell) is checked
+//     against the bond rules after the event is taken; a bond updates the
+//     bond graph, merges the two groups into one rigid cluster, checks every
+//     pair the merge put inside one cluster (ring closure), and re-predicts
+//     every member. A cluster member's impulse moves the whole cluster, so all
+//     its members' counters change and all are re-predicted;
+//  6. the steady-state monitor samples N_t(t); the run ends at MSER steady
+//     state, when no bond is possible any more, at t_max or on an error;
+//  7. validation mode: check every invariant at the event time.
+// Prediction never changes state; state changes only in steps 3 and 5.
 
 #include <cstdint>
 #include <memory>
@@ -17,7 +25,9 @@
 #include <utility>
 #include <vector>
 
+#include "analysis/mser.hpp"
 #include "core/body.hpp"
+#include "core/bond_graph.hpp"
 #include "core/cell_grid.hpp"
 #include "core/event_queue.hpp"
 #include "core/params.hpp"
@@ -25,15 +35,15 @@
 
 namespace ringsim {
 
-enum class EventType : std::uint8_t { None, Collision, Wall, CellCross };
+enum class EventType : std::uint8_t { None, Collision, Wall, CellCross, Capture };
 
 // One pending event: a small value record owned by its body.
 struct Event {
   double time = kNever;
-  int partner = -1;                  // body id (Collision)
+  int partner = -1;                  // body id (Collision, Capture)
   std::uint32_t partner_counter = 0; // partner's impulse counter at prediction
   EventType type = EventType::None;
-  std::int8_t dim = 0;               // Wall, CellCross
+  std::int8_t dim = 0;               // Wall, CellCross (-1: relocate a cluster member); Capture: linker end
   std::int8_t dir = 0;
 };
 
@@ -43,13 +53,18 @@ struct RunStats {
   std::int64_t wall_collisions = 0;
   std::int64_t cell_crossings = 0;   // neighbour-structure refreshes
   std::int64_t stale = 0;            // invalidated events discarded
+  std::int64_t memo_resumed = 0;     // pair searches resumed from an earlier proof
   std::int64_t tc_collisions = 0;    // contacts made elastic by the TC model
   std::int64_t stick = 0, slide = 0; // frictional contact modes
+  std::int64_t captures = 0;         // capture events taken (bond formed or not)
+  std::int64_t bonds = 0;            // bonds formed (captures that passed the rules, ring closures)
+  std::int64_t closure_bonds = 0;    // of which formed by ring closure inside a merged cluster
+  std::int64_t rejected_valency = 0, rejected_angle = 0, rejected_coplanarity = 0;
   std::uint64_t ca_steps = 0;        // conservative-advancement distance evaluations
   std::int64_t plane_evaluations = 0; // separating-plane bound evaluations
 };
 
-enum class Termination { Running, TimeLimit, EventBudget, Error };
+enum class Termination { Running, TimeLimit, SteadyState, NoBondPossible, EventBudget, Error };
 const char* to_string(Termination t);
 
 class Validator;
@@ -68,11 +83,18 @@ class Simulation {
   const BodyStore& bodies() const { return bodies_; }
   BodyStore& bodies_mutable() { return bodies_; }
   const RunStats& stats() const { return stats_; }
+  const Predictor::SearchCounts& predictor_counts() const { return predictor_.search_counts(); }
   Termination termination() const { return termination_; }
   const std::string& error() const { return error_; }
   const SimParams& params() const { return params_; }
   const Box& box() const { return box_; }
   const CellGrid& grid() const { return grid_; }
+  const BondGraph& graph() const { return graph_; }
+  // The sampled N_t(t) series and the MSER result behind a steady-state end.
+  const SteadyStateMonitor& monitor() const { return monitor_; }
+  // Bonds of a sphere: (linker, end) pairs; the sphere bonded to a linker end (-1: free).
+  const std::vector<std::pair<int, int>>& sphere_bonds(int s) const { return sphere_bonds_[s]; }
+  int end_sphere(int linker, int end) const { return end_sphere_[2 * (linker - n_spheres_) + end]; }
 
   // Moves every body's reference time to t (after the last processed event).
   void synchronize(double t);
@@ -92,6 +114,16 @@ class Simulation {
 
  private:
   void predict(int i, double t);
+  void predict_group(int i, double t);  // i and, for a member, its whole cluster
+  void bump(int i, double t);           // trajectory of i's group changed at t
+  void process_capture(int i, const Event& ev, double t);
+  // Bond rules (MODEL.md) for sphere s and end `end` of linker l at time t.
+  bool rules_allow(int s, int l, int end, double t);
+  // Forms the bond, merges groups and closes rings; re-predicts the cluster.
+  void form_bond(int s, int l, int end, double t);
+  void check_initial_captures();
+  bool bond_possible() const;
+  double capture_range() const;
   void process_collision(int i, int j, double t);
   void process_wall(int i, const Event& ev, double t);
   void process_cell(int i, const Event& ev, double t);
@@ -104,7 +136,28 @@ class Simulation {
   std::unique_ptr<EventQueue> queue_;
   Predictor predictor_;
   std::vector<Event> events_;
+  int n_spheres_ = 0;
+  BondGraph graph_;
+  SteadyStateMonitor monitor_;
+  std::vector<std::vector<std::pair<int, int>>> sphere_bonds_;
+  std::vector<int> end_sphere_;
+  std::vector<int> capture_partners_;  // scratch of predict()
   std::vector<std::pair<double, int>> candidates_;  // scratch of predict()
+  // Pair-search memo. A search of pair (i, j) from `from` with horizon
+  // `until` either proved no contact in [from, until) (hit false) or found the
+  // first contact at `until` (hit true). While neither body's trajectory has
+  // changed (both counters equal), a later search of the pair - from either
+  // body, e.g. after a cell crossing - resumes from there instead of redoing
+  // the work. memo_[i] keeps the entries of i's last prediction.
+  struct PairMemo {
+    int partner;
+    std::uint32_t counter_self, counter_partner;
+    double from, until;
+    bool hit;
+  };
+  double memo_pair(int i, int j, double t, double limit, const Vec3& xi);
+  std::vector<std::vector<PairMemo>> memo_;
+  std::vector<PairMemo> memo_scratch_;
   double now_ = 0.0;
   RunStats stats_;
   Termination termination_ = Termination::Running;

@@ -10,8 +10,9 @@
 //  - momentum: |P - P0 - J_walls| / sum_i m_i |v_i|(0);
 //  - angular momentum (reflective boxes only; periodic images break it):
 //    |L - L0 - M_walls| / sum_i (|x_i| m_i |v_i| + |L_i|)(0), about the origin;
-//  - energy (only meaningful when every restitution is 1 and contacts are
-//    smooth): |E - E0| / E0; otherwise the largest relative *increase*.
+//  - energy (only meaningful when every restitution is 1, contacts are
+//    smooth and bonding is off): |E - E0| / E0; otherwise the largest
+//    relative *increase* (a rigid bond is a perfectly inelastic merge).
 
 #include <cstdint>
 

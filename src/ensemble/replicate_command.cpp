@@ -3,18 +3,52 @@
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
+#include <fstream>
+#include <stdexcept>
 #include <ostream>
 
+#include "core/cluster.hpp"
 #include "core/motion.hpp"
 #include "core/scene.hpp"
 #include "core/simulation.hpp"
+#include "core/snapshot.hpp"
 #include "core/validation.hpp"
 #include "ensemble/config.hpp"
 #include "ringsim/version.hpp"
 
 namespace ringsim {
 
-nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::uint64_t replicate) {
+namespace {
+
+void write_snapshot(const Simulation& sim, const SimParams& params, std::uint64_t seed, std::uint64_t replicate,
+                    const std::string& path) {
+  const BodyStore& b = sim.bodies();  // synchronized: every kin holds the final pose
+  Snapshot snap;
+  snap.time = sim.time();
+  snap.box_length = params.geometry.box_length;
+  snap.periodic = params.geometry.boundary == Boundary::Periodic;
+  snap.comment = "ringsim " + std::string(kVersion) + " seed " + std::to_string(seed) + " replicate " +
+                 std::to_string(replicate);
+  for (int i = 0; i < b.size(); ++i) {
+    const Species& s = b.sp(i);
+    snap.bodies.push_back(SnapshotBody{s.shape == Shape::Sphere, b.kin[i].x,
+                                       s.shape == Shape::Sphere ? Vec3(Vec3::UnitZ()) : Vec3(b.kin[i].axis.normalized()),
+                                       s.radius, s.half_length, sim.graph().component(i)});
+  }
+  snap.bonds = sim.graph().bonds();
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot open snapshot file " + path + " for writing");
+  const bool vtk = path.size() >= 4 && path.compare(path.size() - 4, 4, ".vtk") == 0;
+  if (vtk) write_vtk(out, snap);
+  else write_extended_xyz(out, snap);
+  out.close();
+  if (!out) throw std::runtime_error("could not write snapshot file " + path + " (disk full?)");
+}
+
+}  // namespace
+
+nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::uint64_t replicate,
+                             const std::string& snapshot_path) {
   const auto start = std::chrono::steady_clock::now();
   SceneReport scene;
   BodyStore bodies = build_scene(params, seed, replicate, &scene);
@@ -25,16 +59,10 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
     sim.set_validator(validator.get());
   }
   const Termination term = sim.run();
+  if (!snapshot_path.empty() && term != Termination::Error) write_snapshot(sim, params, seed, replicate, snapshot_path);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  double e_trans = 0.0, e_rot = 0.0;
-  Vec3 momentum = Vec3::Zero();
-  const BodyStore& b = sim.bodies();
-  for (int i = 0; i < b.size(); ++i) {
-    e_trans += translational_energy(b.kin[i], b.sp(i));
-    e_rot += rotational_energy(b.kin[i], b.sp(i));
-    momentum += b.sp(i).mass * b.kin[i].v;
-  }
+  const MechanicalTotals totals = mechanical_totals(sim.bodies(), sim.time());
   const RunStats& s = sim.stats();
   nlohmann::json j;
   j["version"] = kVersion;
@@ -60,8 +88,36 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   if (term == Termination::Error) j["error"] = sim.error();
   j["wall_seconds"] = wall;
   j["events_per_second"] = wall > 0 ? static_cast<double>(s.events) / wall : 0.0;
-  j["energy"] = {{"translational", e_trans}, {"rotational", e_rot}};
-  j["momentum"] = {momentum.x(), momentum.y(), momentum.z()};
+  j["energy"] = {{"translational", totals.translational}, {"rotational", totals.rotational}};
+  j["momentum"] = {totals.momentum.x(), totals.momentum.y(), totals.momentum.z()};
+  // The study's observables (MODEL.md, "Observables"), at the final time.
+  const Observables o = sim.graph().observables(sim.time());
+  j["captures"] = s.captures;
+  j["bonds"] = s.bonds;
+  j["closure_bonds"] = s.closure_bonds;
+  j["rejected"] = {{"valency", s.rejected_valency}, {"angle", s.rejected_angle}, {"coplanarity", s.rejected_coplanarity}};
+  j["N_t"] = o.N_t;
+  j["N_tar"] = o.N_tar;
+  j["N_viab"] = o.N_viab;
+  j["N_nv1"] = o.n_nv1;
+  j["N_nv2"] = o.n_nv2;
+  j["N_nv3"] = o.n_nv3;
+  j["N_cyc"] = o.N_cyc;
+  nlohmann::json rings = nlohmann::json::object();
+  for (const auto& [m, count] : o.rings) rings[std::to_string(m)] = count;
+  j["rings"] = rings;
+  j["Phi_obj"] = o.Phi_obj;
+  j["Phi_viab"] = o.Phi_viab;
+  j["S4"] = o.S4 ? nlohmann::json(*o.S4) : nlohmann::json(nullptr);
+  j["M_mono"] = o.M_mono;
+  j["M_mono_S"] = o.M_mono_S;
+  j["M_mono_L"] = o.M_mono_L;
+  j["tau_tar"] = o.tau_tar;
+  j["tau_tar_censored"] = o.tau_tar_censored;
+  if (term == Termination::SteadyState) {
+    const MserResult& m = sim.monitor().result();
+    j["mser"] = {{"truncation", m.truncation}, {"batches", m.batches}, {"samples", sim.monitor().samples().size()}};
+  }
   if (validator) {
     const ValidationReport& r = validator->report();
     j["validation"] = {{"checks", r.checks},
@@ -75,13 +131,17 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
 }
 
 void add_replicate_command(CLI::App& app, ReplicateOptions& opt) {
-  CLI::App* cmd = app.add_subcommand("replicate", "Run one replicate and print its event statistics.");
+  CLI::App* cmd = app.add_subcommand("replicate",
+                                     "Run one replicate to steady state (or t_max) and print the study's observables "
+                                     "and its event statistics.");
   cmd->footer(
       "Examples:\n"
-      "  ringsim replicate --seed 7                       built-in default scene (300 spheres + 300 linkers)\n"
+      "  ringsim replicate --seed 7                       built-in defaults = Scenario 4 (300 + 300, both filters, rigid)\n"
       "  ringsim replicate jobs/scenarios/1-baseline.toml --seed 7 --json\n"
       "  ringsim replicate --seed 1 --set run.t_max=50 --set geometry.boundary=periodic\n"
       "  ringsim replicate --seed 1 --validate --set run.t_max=10   check invariants after every event\n"
+      "  ringsim replicate jobs/scenarios/4-passive-selection.toml --seed 3 --snapshot final.xyz\n"
+      "      then: /usr/bin/python3 scripts/render_snapshot.py final.xyz -o final.png\n"
       "Configuration keys and ranges: docs/CONFIG.md (or `ringsim keys`).");
   cmd->add_option("scenario", opt.scenario, "Scenario TOML file listing deviations from the defaults (optional)")
       ->check(CLI::ExistingFile);
@@ -90,13 +150,16 @@ void add_replicate_command(CLI::App& app, ReplicateOptions& opt) {
   cmd->add_option("--set", opt.overrides, "Override one key: SECTION.KEY=VALUE (repeatable)")->take_all();
   cmd->add_flag("--json", opt.json, "Print one JSON object instead of a table");
   cmd->add_flag("--validate", opt.validate, "Validation mode: check overlaps and conservation laws after every event");
+  cmd->add_option("--snapshot", opt.snapshot,
+                  "Write the final configuration to FILE: extended XYZ (OVITO), or legacy VTK (ParaView) when FILE "
+                  "ends in .vtk; render with scripts/render_snapshot.py");
 }
 
 int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
   std::vector<std::string> overrides = opt.overrides;
   if (opt.validate) overrides.push_back("run.validate=true");
   const SimParams params = load_config_file(opt.scenario, overrides);
-  const nlohmann::json j = run_replicate(params, opt.seed, opt.replicate);
+  const nlohmann::json j = run_replicate(params, opt.seed, opt.replicate, opt.snapshot);
   if (opt.json) {
     out << j.dump() << '\n';
   } else {
@@ -106,13 +169,16 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
       out << line;
     };
     out << "ringsim replicate (" << kVersion << ")\n";
-    for (const char* k : {"seed", "spheres", "linkers", "packing_fraction", "mixing", "events", "collisions",
-                          "wall_collisions", "cell_crossings", "stale_events", "tc_collisions", "ca_steps", "plane_evaluations", "t_end",
-                          "termination", "wall_seconds", "events_per_second"})
+    out << "observables (final time; fractions, not percent)\n";
+    for (const char* k : {"N_t", "N_tar", "N_viab", "N_cyc", "rings", "Phi_obj", "Phi_viab", "S4", "M_mono", "M_mono_S",
+                          "M_mono_L", "tau_tar", "tau_tar_censored"})
       row(k, j[k].dump());
-    row("energy.translational", j["energy"]["translational"].dump());
-    row("energy.rotational", j["energy"]["rotational"].dump());
-    row("momentum", j["momentum"].dump());
+    out << "run\n";
+    for (const char* k : {"seed", "spheres", "linkers", "packing_fraction", "mixing", "t_end", "termination", "events",
+                          "collisions", "wall_collisions", "captures", "bonds", "closure_bonds", "rejected",
+                          "cell_crossings", "stale_events", "tc_collisions", "ca_steps", "wall_seconds",
+                          "events_per_second", "energy", "momentum"})
+      row(k, j[k].dump());
     if (j.contains("validation")) row("validation", j["validation"].dump());
     if (j.contains("error")) row("error", j["error"].get<std::string>());
   }

@@ -24,11 +24,16 @@ struct ReplicateOptions {
   std::vector<std::string> overrides;
   bool json = false;
   bool validate = false;              // same as --set run.validate=true
+  std::string snapshot;               // final configuration: .xyz (extended XYZ) or .vtk; empty: none
 };
 
 // Runs one replicate with the given settings and returns the result object
-// (the `--json` output). Throws ConfigError / SceneError on bad input.
-nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::uint64_t replicate);
+// (the `--json` output). With a snapshot path, also writes the final
+// configuration (core/snapshot.hpp): extended XYZ, or legacy VTK when the
+// path ends in ".vtk". Throws ConfigError / SceneError on bad input,
+// std::runtime_error when the snapshot cannot be written.
+nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::uint64_t replicate,
+                             const std::string& snapshot_path = "");
 
 void add_replicate_command(CLI::App& app, ReplicateOptions& opt);
 int replicate_main(const ReplicateOptions& opt, std::ostream& out);

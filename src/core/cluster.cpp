@@ -1,0 +1,196 @@
+#include "core/cluster.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+
+#include "core/motion.hpp"
+#include "core/pose.hpp"
+
+namespace ringsim {
+
+namespace {
+
+Vec3 wrap_into(Vec3 x, const Box& box) {
+  if (box.periodic)
+    for (int d = 0; d < 3; ++d) x[d] -= box.length * std::floor(x[d] / box.length);
+  return x;
+}
+
+// World inertia tensor of one body about its own centre.
+Mat3 body_inertia(const Species& s, const Vec3& u) {
+  if (s.shape == Shape::Sphere) return s.i_perp * Mat3::Identity();
+  const Mat3 uu = u * u.transpose();
+  return s.i_perp * (Mat3::Identity() - uu) + s.i_axial * uu;
+}
+
+// One group (a free body or a cluster) at time t: its members with centres in
+// one consistent image, its momentum, own angular momentum (about its centre
+// of mass) and centre of mass.
+struct Part {
+  std::vector<int> members;
+  std::vector<Vec3> x;
+  std::vector<Vec3> u;
+  Vec3 com;
+  Vec3 momentum;
+  Vec3 spin;  // angular momentum about com
+  double mass;
+};
+
+Part part_of(const BodyStore& b, int i, double t) {
+  Part p;
+  const int g = b.group[i];
+  if (g < 0) {
+    const Species& s = b.sp(i);
+    p.members = {i};
+    p.x = {body_center(b, i, t)};
+    p.u = {body_axis(b, i, t)};
+    p.com = p.x[0];
+    p.mass = s.mass;
+    p.momentum = s.mass * b.kin[i].v;
+    p.spin = angular_momentum(b.kin[i], s);
+    return p;
+  }
+  const Cluster& c = b.clusters[g];
+  p.members = c.members;
+  for (int m : c.members) {
+    p.x.push_back(body_center(b, m, t));
+    p.u.push_back(body_axis(b, m, t));
+  }
+  p.com = c.x + c.v * (t - c.t);
+  p.mass = c.mass;
+  p.momentum = c.mass * c.v;
+  p.spin = c.rot.angular_momentum();
+  return p;
+}
+
+}  // namespace
+
+void rebase_cluster(Cluster& c, const Box& box, double t) {
+  if (t == c.t) return;
+  const Mat3 R = c.orientation_at(t);
+  c.x = wrap_into(c.x + c.v * (t - c.t), box);
+  c.rot = FreeRotation(c.moments, R, c.rot.angular_momentum());
+  c.t = t;
+  c.cache_t = t;
+  c.cache_R = R;
+}
+
+void cluster_impulse(Cluster& c, const Box& box, double t, const Vec3& J, const Vec3& arm) {
+  rebase_cluster(c, box, t);
+  c.v += J / c.mass;
+  const Mat3 R = c.orientation_at(t);
+  c.rot = FreeRotation(c.moments, R, c.rot.angular_momentum() + arm.cross(J));
+  c.max_rate = c.rot.max_rate();
+}
+
+int merge_groups(BodyStore& b, const Box& box, int a, int other, double t) {
+  Part pa = part_of(b, a, t);
+  Part pb = part_of(b, other, t);
+  // Put b's group in the periodic image nearest to a's centre of mass.
+  const Vec3 shift = pa.com + box.min_image(pb.com - pa.com) - pb.com;
+  pb.com += shift;
+  for (Vec3& x : pb.x) x += shift;
+
+  // Momentum and angular momentum (about the new centre of mass) are
+  // conserved: the merge is a perfectly inelastic collision.
+  const double mass = pa.mass + pb.mass;
+  const Vec3 com = (pa.mass * pa.com + pb.mass * pb.com) / mass;
+  const Vec3 momentum = pa.momentum + pb.momentum;
+  const Vec3 velocity = momentum / mass;
+  Vec3 L = Vec3::Zero();
+  Mat3 inertia = Mat3::Zero();
+  for (const Part* p : {&pa, &pb}) {
+    L += p->spin + (p->com - com).cross(p->momentum - p->mass * velocity);
+    for (std::size_t k = 0; k < p->members.size(); ++k) {
+      const Species& s = b.sp(p->members[k]);
+      const Vec3 r = p->x[k] - com;
+      // Parallel-axis theorem: I_com = I_own + m (|r|^2 1 - r r^T).
+      inertia += body_inertia(s, p->u[k]) + s.mass * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
+    }
+  }
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(inertia);
+  Mat3 axes = eig.eigenvectors();  // columns: principal axes (world)
+  if (axes.determinant() < 0.0) axes.col(2) = -axes.col(2);
+
+  for (const Part* p : {&pa, &pb}) {
+    const int g = b.group[p->members[0]];
+    if (g >= 0) {
+      b.clusters[g].alive = false;
+      b.clusters[g].members.clear();
+      b.clusters[g].members.shrink_to_fit();
+    }
+  }
+  Cluster c;
+  c.t = t;
+  c.x = wrap_into(com, box);
+  c.v = velocity;
+  c.mass = mass;
+  c.moments = eig.eigenvalues();
+  c.rot = FreeRotation(c.moments, axes, L);
+  c.max_rate = c.rot.max_rate();
+  c.alive = true;
+  c.cache_t = t;
+  c.cache_R = axes;
+  const int id = static_cast<int>(b.clusters.size());
+  for (const Part* p : {&pa, &pb}) {
+    for (std::size_t k = 0; k < p->members.size(); ++k) {
+      const int m = p->members[k];
+      c.members.push_back(m);
+      b.group[m] = id;
+      b.offset[m] = axes.transpose() * (p->x[k] - com);
+      b.body_axis[m] = axes.transpose() * p->u[k];
+      b.reach[m] = b.offset[m].norm();
+    }
+  }
+  b.clusters.push_back(std::move(c));
+  return id;
+}
+
+MechanicalTotals mechanical_totals(const BodyStore& b, double t) {
+  MechanicalTotals r;
+  for (int i = 0; i < b.size(); ++i) {
+    if (b.group[i] >= 0) continue;
+    Kinematics k = b.kin[i];
+    advance(k, t);
+    const Species& s = b.sp(i);
+    const Vec3 p = s.mass * k.v;
+    const Vec3 own = angular_momentum(k, s);
+    r.momentum += p;
+    r.angular_momentum += k.x.cross(p) + own;
+    r.translational += translational_energy(k, s);
+    r.rotational += rotational_energy(k, s);
+    r.p_scale += p.norm();
+    r.l_scale += k.x.norm() * p.norm() + own.norm();
+  }
+  for (const Cluster& c : b.clusters) {
+    if (!c.alive) continue;
+    const Vec3 x = c.x + c.v * (t - c.t);
+    const Vec3 p = c.mass * c.v;
+    const Vec3& own = c.rot.angular_momentum();
+    r.momentum += p;
+    r.angular_momentum += x.cross(p) + own;
+    r.translational += 0.5 * c.mass * c.v.squaredNorm();
+    r.rotational += c.rot.energy();
+    r.p_scale += p.norm();
+    r.l_scale += x.norm() * p.norm() + own.norm();
+  }
+  r.energy = r.translational + r.rotational;
+  return r;
+}
+
+void snapshot_members(BodyStore& b, const Box& box, double t) {
+  for (int i = 0; i < b.size(); ++i) {
+    if (b.group[i] < 0) continue;
+    const Cluster& c = b.clusters[b.group[i]];
+    const Vec3 x = body_center(b, i, t);
+    Kinematics& k = b.kin[i];
+    k.v = shape_point_velocity(b, i, t, x, x);
+    k.x = wrap_into(x, box);
+    k.axis = body_axis(b, i, t);
+    k.precession = c.rot.omega_world(t - c.t);
+    k.spin = 0.0;
+    k.t = t;
+  }
+}
+
+}  // namespace ringsim
