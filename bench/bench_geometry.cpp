@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/free_rotation.hpp"
 #include "core/geometry.hpp"
 
 #ifndef RINGSIM_TESTDATA_DIR
@@ -94,6 +95,20 @@ void BM_FclCylindersOverlap(benchmark::State& state) {
   run(state, [](const Pose& q) { return fcl_cylinders_overlap(q.a, q.b, 0.0); });
 }
 BENCHMARK(BM_FclCylindersOverlap);
+
+// Exact torque-free rotation of an asymmetric body (m = 0.93), one orientation
+// per iteration at advancing times.
+void BM_FreeRotationOrientation(benchmark::State& state) {
+  const ringsim::Mat3 R0 = Eigen::AngleAxisd(0.3, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  const ringsim::FreeRotation fr(Vec3(2, 5, 9), R0, R0 * Vec3(1.4, -2.0, 2.7));
+  double t = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(fr.orientation(t));
+    t += 0.37;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_FreeRotationOrientation);
 
 }  // namespace
 

@@ -221,7 +221,8 @@ SimParams scenario_params(bool angle, bool coplanar) {
   return p;
 }
 
-void validation_run(SimParams p, std::uint64_t seed, std::int64_t events) {
+// A validation-mode run; min_bonds only makes sure bonding took place.
+void validation_run(SimParams p, std::uint64_t seed, std::int64_t events, int min_bonds = 20) {
   p.run.t_max = 1e9;
   p.run.steady_state = false;
   p.run.max_events = events;
@@ -235,12 +236,80 @@ void validation_run(SimParams p, std::uint64_t seed, std::int64_t events) {
   EXPECT_LT(r.max_momentum_error, 1e-11);
   EXPECT_LT(r.max_angular_momentum_error, 1e-11);
   EXPECT_LT(r.max_energy_error, 1e-11);  // bonds only remove energy
-  EXPECT_GT(sim.stats().bonds, 20) << "t = " << sim.time();
+  EXPECT_GE(sim.stats().bonds, min_bonds) << "t = " << sim.time();
   std::printf("events %ld t %.3f bonds %ld overlaps %ld dp %.2e dL %.2e dE %.2e\n", (long)sim.stats().events, sim.time(), (long)sim.stats().bonds, (long)r.overlaps, r.max_momentum_error, r.max_angular_momentum_error, r.max_energy_error);
 }
 
 TEST(ValidationWithBonds, Scenario1BaselineNoOverlapsConservation) { validation_run(scenario_params(false, false), 21, 12000); }
+TEST(ValidationWithBonds, Scenario2BondAngleNoOverlapsConservation) { validation_run(scenario_params(true, false), 23, 8000, 5); }
+TEST(ValidationWithBonds, Scenario3CoplanarityNoOverlapsConservation) { validation_run(scenario_params(false, true), 24, 8000, 5); }
 TEST(ValidationWithBonds, Scenario4PassiveSelectionNoOverlapsConservation) { validation_run(scenario_params(true, true), 22, 12000); }
+TEST(ValidationWithBonds, Scenario6LowDensityNoOverlapsConservation) {
+  SimParams p = scenario_params(true, true);
+  p.init.spheres = p.init.linkers = 150;
+  validation_run(p, 25, 6000, 3);
+}
+
+TEST(ValidationWithBonds, PeriodicBoxClustersAcrossTheBoundary) {
+  // Scenario 1 in a periodic box of 30: 150 + 150 bodies, clusters cross the
+  // boundary. Momentum only (periodic images break angular momentum).
+  SimParams p = scenario_params(false, false);
+  p.geometry.boundary = Boundary::Periodic;
+  p.geometry.box_length = 30.0;
+  p.init.spheres = p.init.linkers = 150;
+  p.run.t_max = 1e9;
+  p.run.steady_state = false;
+  p.run.max_events = 6000;
+  Simulation sim(p, build_scene(p, 26, 0, nullptr));
+  Validator v(sim);
+  sim.set_validator(&v);
+  EXPECT_NE(sim.run(), Termination::Error) << sim.error();
+  EXPECT_EQ(v.report().overlaps, 0) << "first overlap at t = " << v.report().first_overlap_time;
+  EXPECT_LT(v.report().max_momentum_error, 1e-11);
+  EXPECT_LT(v.report().max_energy_error, 1e-11);
+  // Some cluster straddled the boundary: a member's unwrapped centre left the box.
+  bool straddled = false;
+  const BodyStore& b = sim.bodies();
+  for (const Cluster& c : b.clusters) {
+    if (!c.alive) continue;
+    for (int m : c.members) {
+      const Vec3 x = body_center(b, m, sim.time());
+      for (int d = 0; d < 3; ++d) straddled |= x[d] < 0.0 || x[d] >= p.geometry.box_length;
+    }
+  }
+  EXPECT_GT(sim.stats().bonds, 10);
+  EXPECT_TRUE(straddled) << "no cluster crosses the boundary at the end; the test did not exercise it";
+}
+
+TEST(Termination, NoBondPossibleOnceTheOnlyOpenSitesShareACluster) {
+  // One sphere and one linker: after the capture the sphere has one free
+  // valency and the linker one free end, but they are one rigid body.
+  SimParams p = bonding_params();
+  const Vec3 c(20, 20, 20);
+  BodyStore b = make_bodies(p, {{Shape::Sphere, c + Vec3(10, 0, 0), Vec3(-1, 0, 0), Vec3::UnitZ(), kZero},
+                                {Shape::Linker, c, kZero, Vec3::UnitX(), kZero}});
+  Simulation sim(p, std::move(b));
+  EXPECT_EQ(sim.run(), Termination::NoBondPossible);
+  EXPECT_NEAR(sim.time(), 6.9, 1e-8);
+}
+
+TEST(Termination, ConstantNtIsSteadyAtTheFirstCheck) {
+  // A sphere and a linker far apart moving in parallel: a bond stays
+  // possible but never happens, so N_t = 2 throughout. MSER-5 on a constant
+  // series truncates at 0: steady at the first check, after the default 200
+  // samples at t = 0, 1, ..., 199.
+  SimParams p = bonding_params();
+  p.run.t_max = 5000.0;
+  p.run.steady_state = true;
+  const Vec3 c(20, 20, 20);
+  BodyStore b = make_bodies(p, {{Shape::Sphere, c + Vec3(0, 8, 0), Vec3(0, 0, 0.01), Vec3::UnitZ(), kZero},
+                                {Shape::Linker, c, Vec3(0, 0, 0.01), Vec3::UnitX(), kZero}});
+  Simulation sim(p, std::move(b));
+  EXPECT_EQ(sim.run(), Termination::SteadyState);
+  EXPECT_DOUBLE_EQ(sim.time(), 199.0);
+  EXPECT_EQ(sim.monitor().samples().size(), 200u);
+  EXPECT_EQ(sim.monitor().result().truncation, 0u);
+}
 
 TEST(Determinism, SameSeedSameObservables) {
   SimParams p = scenario_params(false, false);

@@ -237,22 +237,18 @@ FreeRotation::FreeRotation(const Vec3& principal_moments, const Mat3& R0, const 
     }
   }
 
-  // Symmetric top with L in the plane of its two equal moments: omega = L / I
-  // is parallel to L, a stationary rotation (the same rounding threshold).
-  for (int k = 0; k < 3; ++k) {
-    const int p1 = (k + 1) % 3, p2 = (k + 2) % 3;
-    if (I[p1] == I[p2] && Lb[k] * Lb[k] <= 1e-29 * L2) {
-      set_uniform();
-      return;
-    }
-  }
-
   // Regime [LL 37]: L circles the largest axis iff L^2 > 2 E I2, i.e.
   // L1^2 (1/I1 - 1/I2) < L3^2 (1/I2 - 1/I3) (each side free of cancellation).
   // Ties (the separatrix) go to the smallest axis; with a symmetric top
   // I2 = I3 this keeps the symmetry axis as z.
   const LD I1 = I[s[0]], I2 = I[s[1]], I3 = I[s[2]];
-  const LD L1 = Lb[s[0]], L3 = Lb[s[2]];
+  // L in the body frame in long double: the constants below then belong to the
+  // given (R0, L) to ~1e-19, not to a rounded R0^T L (whose 1e-16 error would
+  // shift the frequencies and so the phase by ~1e-16 per radian).
+  std::array<LD, 3> Lbl{};
+  for (int i = 0; i < 3; ++i)
+    Lbl[i] = LD(R0(0, i)) * L_world[0] + LD(R0(1, i)) * L_world[1] + LD(R0(2, i)) * L_world[2];
+  const LD L1 = Lbl[s[0]], L3 = Lbl[s[2]];
   const bool circle_largest = L1 * L1 * inv_diff(I1, I2) < L3 * L3 * inv_diff(I2, I3);
   const int ix = circle_largest ? s[0] : s[2];
   const int iy = s[1];
@@ -262,8 +258,7 @@ FreeRotation::FreeRotation(const Vec3& principal_moments, const Mat3& R0, const 
   Px(iy, 1) = 1.0;
   Px(iz, 2) = 1.0;
   if (Px.determinant() < 0) Px(iy, 1) = -1.0;
-  const Vec3 LXd = Px.transpose() * Lb;  // exact (signed permutation)
-  const LD Lx = LXd[0], Ly = LXd[1], Lz = LXd[2];
+  const LD Lx = Lbl[ix], Ly = Px(iy, 1) * Lbl[iy], Lz = Lbl[iz];  // L in X
   const LD Ix = I[ix], Iy = I[iy], Iz = I[iz];
 
   const LD dxz = inv_diff(Ix, Iz), dyz = inv_diff(Iy, Iz), dxy = inv_diff(Ix, Iy);

@@ -18,9 +18,12 @@
 // Invariants and units: moments in mass*length^2, times in the caller's unit,
 // angular velocity in rad per time unit. Everything that does not depend on
 // dt is computed in the constructor; the evaluation methods are const, free of
-// allocation and exceptions, and reduce the elliptic argument by its period,
-// so their accuracy does not degrade with |dt| (beyond the unavoidable
-// ~1e-16 * |omega dt| rounding of the phase itself).
+// allocation and exceptions, and reduce the elliptic argument and the
+// precession angle by their periods with constants kept beyond double
+// precision, so their accuracy does not degrade with |dt|: ~1e-14 after 1e4
+// rotation periods against a 40-digit evaluation (tests/test_free_rotation.cpp).
+// Cost: ~0.4-0.5 us per orientation(), ~0.2 us per omega_body(), ~1-1.5 us per
+// construction (long double), on the development machine.
 
 #include <array>
 
@@ -54,8 +57,10 @@ class FreeRotation {
   // Which closed form is used (for tests and diagnostics).
   enum class Mode {
     Rest,        // L = 0
-    Uniform,     // omega parallel to L: principal axis, spherical top, or L in
-                 // the degenerate plane of a symmetric top
+    Uniform,     // omega parallel to L: spherical top, L in the degenerate plane
+                 // of a symmetric top (exactly), or L along a principal axis
+                 // (to 3e-15 |L|: below the rounding of R0^T L, which would
+                 // otherwise grow like exp(lambda t) about the middle axis)
     Elliptic,    // general case, 0 <= m < 1
     Separatrix,  // L^2 = 2 E I_mid exactly (m = 1): hyperbolic functions
   };
