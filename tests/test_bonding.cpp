@@ -250,6 +250,12 @@ TEST(ValidationWithBonds, Scenario6LowDensityNoOverlapsConservation) {
   validation_run(p, 25, 6000, 3);
 }
 
+TEST(ValidationWithBonds, Scenario6HighDensityNoOverlapsConservation) {
+  SimParams p = scenario_params(true, true);
+  p.init.spheres = p.init.linkers = 600;
+  validation_run(p, 27, 3000, 1);
+}
+
 TEST(ValidationWithBonds, PeriodicBoxClustersAcrossTheBoundary) {
   // Scenario 1 in a periodic box of 30: 150 + 150 bodies, clusters cross the
   // boundary. Momentum only (periodic images break angular momentum).
