@@ -5,10 +5,14 @@
 
 #include "core/motion.hpp"
 #include "core/pose.hpp"
+#include "core/prediction_windows.hpp"
 #include "core/corotating_plane.hpp"
 #include "core/separating_plane.hpp"
 
 namespace ringsim {
+
+using detail::sphere_window;
+using detail::wall_window_impl;
 
 namespace {
 
@@ -17,48 +21,6 @@ namespace {
 // Measured on the periodic 600-body box (docs/PERFORMANCE.md): 3 -> 4.9k,
 // 6 -> 5.1k, 16 -> 3.8k, 32 -> 3.6k collisions/s (median of three seeds).
 constexpr int kPlaneBudget = 6;
-
-// Interval [enter, leave] (relative times >= 0) during which |dx + dv s| <= R.
-// Returns false when the distance never falls to R.
-bool sphere_window(const Vec3& dx, const Vec3& dv, double R, double* enter, double* leave) {
-  const double a = dv.squaredNorm();
-  const double b = dx.dot(dv);
-  const double c = dx.squaredNorm() - R * R;
-  if (a == 0.0) {
-    if (c > 0.0) return false;
-    *enter = 0.0;
-    *leave = kNever;
-    return true;
-  }
-  const double disc = b * b - a * c;
-  if (disc < 0.0) return false;
-  const double root = std::sqrt(disc);
-  const double s_leave = (-b + root) / a;
-  if (s_leave < 0.0) return false;
-  // Stable form of the smaller root (avoids cancellation when b < 0).
-  *enter = c <= 0.0 ? 0.0 : (b < 0.0 ? c / (-b + root) : kNever);
-  if (*enter == kNever) return false;
-  *leave = s_leave;
-  return true;
-}
-
-// The window in which a body whose reference point moves linearly (x + v s
-// along one axis) can touch the wall at 0 (dir -1) or at L (dir +1): while
-// that point is within `reach` of the wall. Narrows [*start, *end) from t;
-// false when the point never comes that close.
-bool wall_window_impl(double L, double x, double v, int dir, double reach, double t, double* start, double* end) {
-  const double gap_c = dir > 0 ? L - x : x;
-  const double rate_c = dir > 0 ? -v : v;
-  if (rate_c < 0.0) {
-    *start = t + std::max(0.0, gap_c - reach) / -rate_c;
-  } else if (gap_c <= reach) {
-    *start = t;
-    if (rate_c > 0.0) *end = std::min(*end, t + (reach - gap_c) / rate_c);
-  } else {
-    return false;
-  }
-  return true;
-}
 
 Vec3 support_point_of(const BodyStore& b, int i, double t, const Vec3& n) {
   const Species& s = b.sp(i);
@@ -482,174 +444,6 @@ WallHit Predictor::wall(int i, double t, double limit) {
   }
   if (best.time >= limit) best.time = kNever;
   return best;
-}
-
-bool Predictor::wall_window(double x, double v, int dir, double reach, double t, double* start, double* end) const {
-  return wall_window_impl(box_.length, x, v, dir, reach, t, start, end);
-}
-
-double Predictor::advance_generic(int i, int j, double t, double limit) {
-  const Vec3 dx = box_.min_image(reference_center(b_, j, t) - reference_center(b_, i, t));
-  const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
-  double enter, leave;
-  if (!sphere_window(dx, dv, reference_radius(b_, i) + reference_radius(b_, j) + delta_, &enter, &leave)) return kNever;
-  ++counts_.cluster_pair_searches;
-  double s = t + enter;
-  const double end = std::min(limit, t + leave);
-  // Any two surface points approach at most at this rate (core/pose.hpp).
-  const double bound = dv.norm() + rotation_bound(b_, i) + rotation_bound(b_, j);
-  if (bound == 0.0) return kNever;
-  for (int step = 0; step < kMaxSteps; ++step) {
-    if (s >= end) return kNever;
-    ++ca_iterations_;
-    ++counts_.cluster_pair;
-    const ContactGeometry g = contact_geometry(i, j, s);
-    const double d = g.sep.distance;
-    if (d <= delta_ && approach_rate(i, j, s, g) < 0.0) return s;
-    if (d <= 0.0) {
-      s += min_step(bound);
-      continue;
-    }
-    const double target = 0.5 * std::min(d, delta_);
-    double proven = d;
-    if (!g.certified) {
-      // An unproven distance may be too large: step from a separating plane.
-      const RankedNormals r = rank_normals(i, j, s, g);
-      proven = r.value[r.best];
-    }
-    s += std::max((proven - target) / bound, min_step(bound));
-  }
-  failed_ = true;
-  return kNever;
-}
-
-WallHit Predictor::wall_generic(int i, double t, double limit) {
-  const double L = box_.length;
-  const Vec3 X = reference_center(b_, i, t);
-  const Vec3& V = reference_velocity(b_, i);
-  const double reach = reference_radius(b_, i) + delta_;
-  const double rot = rotation_bound(b_, i);
-  const Species& sp = b_.sp(i);
-  WallHit best;
-  best.time = limit;
-  for (int d = 0; d < 3; ++d) {
-    for (int dir : {-1, +1}) {
-      double sc, end = best.time;
-      if (!wall_window(X[d], V[d], dir, reach, t, &sc, &end)) continue;
-      const double bound = std::abs(V[d]) + rot;
-      if (bound == 0.0) continue;
-      Vec3 n = Vec3::Zero();
-      n[d] = dir;
-      const double step_floor = min_step(bound);
-      for (int step = 0; sc < end; ++step) {
-        if (step == kMaxSteps) {
-          failed_ = true;
-          break;
-        }
-        ++ca_iterations_;
-        ++counts_.cluster_wall;
-        const Vec3 c = body_center(b_, i, sc);
-        const double support =
-            sp.shape == Shape::Sphere ? sp.radius : geom::cylinder_support(geom::Cylinder{c, body_axis(b_, i, sc), sp.radius, sp.half_length}, n);
-        const double g = (dir > 0 ? L - c[d] : c[d]) - support;
-        if (g <= delta_ && wall_contact(i, sc, n, nullptr) < 0.0) {
-          best = {sc, d, dir};
-          break;
-        }
-        if (g <= 0.0) {
-          sc += step_floor;
-          continue;
-        }
-        sc += std::max((g - 0.5 * std::min(g, delta_)) / bound, step_floor);
-      }
-    }
-  }
-  if (best.time >= limit) best.time = kNever;
-  return best;
-}
-
-double Predictor::leave_cell(int i, double t, double limit, const Vec3& lo, double w) {
-  const double bound = reference_velocity(b_, i).norm() + point_rotation_bound(b_, i, 0.0);
-  if (bound == 0.0) return kNever;
-  // Fires once the centre is more than half the slack outside (so a centre
-  // resting on a face does not fire again and again), at most 3/4 of it out.
-  // The slack also sets the smallest step (slack / 4 over the speed bound), so
-  // a centre gliding along a face costs a bounded number of steps.
-  const double eps = cell_slack();
-  const double floor_step = 0.25 * eps / bound;
-  double s = t;
-  for (int step = 0; step < kMaxSteps && s < limit; ++step) {
-    ++counts_.cell;
-    Vec3 x = body_center(b_, i, s);
-    if (box_.periodic)
-      for (int d = 0; d < 3; ++d) x[d] -= box_.length * std::floor(x[d] / box_.length);
-    double f = kNever;  // distance to the nearest face, negative outside
-    for (int d = 0; d < 3; ++d) f = std::min({f, x[d] - lo[d], lo[d] + w - x[d]});
-    if (f <= -0.5 * eps) return s;
-    s += std::max((f + 0.5 * eps) / bound, floor_step);
-  }
-  if (s < limit) failed_ = true;
-  return kNever;
-}
-
-double Predictor::capture_gap(int l, int end, int s, double t, double rc) const {
-  const double h = b_.sp(l).half_length;
-  const Vec3 p = body_center(b_, l, t) + (end == 0 ? h : -h) * body_axis(b_, l, t);
-  return box_.min_image(body_center(b_, s, t) - p).norm() - b_.sp(s).radius - rc;
-}
-
-double Predictor::capture(int l, int end, int s, double t, double limit, double rc) {
-  const double h = b_.sp(l).half_length;
-  const double rs = b_.sp(s).radius;
-  // Window: the end point stays within h (+ reach) of l's reference point, the
-  // sphere's centre within its reach of its own.
-  const double rl = in_cluster(b_, l) ? b_.reach[l] + h : h;
-  const double rsph = in_cluster(b_, s) ? b_.reach[s] : 0.0;
-  const Vec3 dx = box_.min_image(reference_center(b_, s, t) - reference_center(b_, l, t));
-  const Vec3 dv = reference_velocity(b_, s) - reference_velocity(b_, l);
-  double enter, leave;
-  if (!sphere_window(dx, dv, rl + rsph + rs + rc + 2.0 * delta_, &enter, &leave)) return kNever;
-  ++counts_.capture_searches;
-  const double stop = std::min(limit, t + leave);
-  const double bound = dv.norm() + point_rotation_bound(b_, l, h) + point_rotation_bound(b_, s, 0.0);
-  if (bound == 0.0) return kNever;
-  const double floor_step = min_step(bound);
-  double x = t;
-  double g = capture_gap(l, end, s, x, rc);
-  // Inside the shell or its firing band: first find the way out (to beyond
-  // 2 delta, a hysteresis that keeps a failed capture from firing again).
-  for (int step = 0; g <= (step == 0 ? delta_ : 2.0 * delta_); ++step) {
-    if (step == kMaxSteps) {
-      failed_ = true;
-      return kNever;
-    }
-    x += std::max((2.0 * delta_ - g) / bound, floor_step);
-    if (x >= stop) return kNever;
-    ++ca_iterations_;
-    ++counts_.capture;
-    g = capture_gap(l, end, s, x, rc);
-  }
-  x = std::max(x, t + enter);
-  for (int step = 0; step < kMaxSteps; ++step) {
-    if (x >= stop) return kNever;
-    ++ca_iterations_;
-    ++counts_.capture;
-    g = capture_gap(l, end, s, x, rc);
-    if (g <= delta_) {
-      // In the firing band: a capture if the gap is closing.
-      const Vec3 cl = body_center(b_, l, x);
-      const Vec3 p = cl + (end == 0 ? h : -h) * body_axis(b_, l, x);
-      const Vec3 cs = p + box_.min_image(body_center(b_, s, x) - p);
-      const Vec3 n = (cs - p).normalized();
-      const double rate = n.dot(shape_point_velocity(b_, s, x, cs, cs) - shape_point_velocity(b_, l, x, p, cl));
-      if (rate < 0.0) return x;
-      x += floor_step;
-      continue;
-    }
-    x += std::max((g - 0.5 * delta_) / bound, floor_step);
-  }
-  failed_ = true;
-  return kNever;
 }
 
 }  // namespace ringsim

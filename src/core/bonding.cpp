@@ -1,0 +1,194 @@
+// Capture and bond formation inside the event loop (MODEL.md, "Capture and
+// bond formation"): the bond rules, rigid merges with ring closure, the
+// checks at t = 0, and the "no bond possible" end. Part of class Simulation
+// (core/simulation.hpp); the geometry of the rules is core/bond_rules.hpp.
+#include <algorithm>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "core/bond_rules.hpp"
+#include "core/cluster.hpp"
+#include "core/motion.hpp"
+#include "core/pose.hpp"
+#include "core/simulation.hpp"
+
+namespace ringsim {
+
+bool Simulation::rules_allow(int s, int l, int end, double t) {
+  const BondingParams& bp = params_.bonding;
+  // 1. valency: a free end, a sphere below its valency.
+  if (bp.end_valency < 1 || end_sphere(l, end) >= 0 || static_cast<int>(sphere_bonds_[s].size()) >= bp.sphere_valency) {
+    ++stats_.rejected_valency;
+    return false;
+  }
+  const Vec3 u = body_axis(bodies_, l, t);
+  const Vec3 out = outward_axis(u, end);
+  // 2. bond angle at the sphere, against every linker already bonded to it.
+  if (bp.angle_filter) {
+    for (const auto& [l2, e2] : sphere_bonds_[s]) {
+      if (!angle_ok(bond_angle_deg(out, outward_axis(body_axis(bodies_, l2, t), e2)), bp)) {
+        ++stats_.rejected_angle;
+        return false;
+      }
+    }
+  }
+  if (!bp.coplanarity_filter) return true;
+  // 3. coplanarity, for every linker whose two ends would both be bonded to
+  // spheres that carry a second linker: the dihedral about its axis between
+  // the neighbouring linkers' outward axes (MODEL.md).
+  // The dihedral about linker c (axis uc) with neighbour axis n_at[e] at its end e.
+  auto planar = [&](const Vec3& uc, const Vec3& n_end0, const Vec3& n_end1) {
+    return planarity_ok(dihedral_deg(uc, n_end0, n_end1), bp);
+  };
+  // (a) the new linker l: neighbours at s (this end) and at the sphere on its other end.
+  const int s_other = end_sphere(l, 1 - end);
+  if (s_other >= 0) {
+    for (const auto& [la, ea] : sphere_bonds_[s]) {
+      const Vec3 na = outward_axis(body_axis(bodies_, la, t), ea);
+      for (const auto& [lb, eb] : sphere_bonds_[s_other]) {
+        if (lb == l) continue;
+        const Vec3 nb = outward_axis(body_axis(bodies_, lb, t), eb);
+        if (!(end == 0 ? planar(u, na, nb) : planar(u, nb, na))) {
+          ++stats_.rejected_coplanarity;
+          return false;
+        }
+      }
+    }
+  }
+  // (b) each linker c already at s: the new linker becomes its neighbour at s.
+  for (const auto& [c, ec] : sphere_bonds_[s]) {
+    const int s3 = end_sphere(c, 1 - ec);
+    if (s3 < 0) continue;
+    const Vec3 uc = body_axis(bodies_, c, t);
+    for (const auto& [l3, e3] : sphere_bonds_[s3]) {
+      if (l3 == c) continue;
+      const Vec3 n3 = outward_axis(body_axis(bodies_, l3, t), e3);
+      if (!(ec == 0 ? planar(uc, out, n3) : planar(uc, n3, out))) {
+        ++stats_.rejected_coplanarity;
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+void Simulation::form_bond(int s, int l, int end, double t) {
+  graph_.add_bond(s, l, end, t);
+  sphere_bonds_[s].push_back({l, end});
+  end_sphere_[2 * (l - n_spheres_) + end] = s;
+  ++stats_.bonds;
+  monitor_.set(t, graph_.N_t());
+  const int gs = bodies_.group[s], gl = bodies_.group[l];
+  if (gs >= 0 && gs == gl) return;  // a ring closing inside one cluster
+  // Rigid bond: the two groups become one rigid body. Pairs the merge puts
+  // inside one cluster are checked now (this is how a rigid ring closes).
+  auto members = [&](int b) {
+    const int g = bodies_.group[b];
+    return g < 0 ? std::vector<int>{b} : bodies_.clusters[g].members;
+  };
+  const std::vector<int> side_s = members(s), side_l = members(l);
+  const int g = merge_groups(bodies_, box_, s, l, t);
+  std::vector<std::tuple<int, int, int>> closures;  // (sphere, linker, end)
+  const double rc = params_.bonding.capture_distance;
+  const double band = params_.run.contact_tolerance;
+  auto scan = [&](const std::vector<int>& from, const std::vector<int>& to) {
+    for (int a : from) {
+      if (bodies_.shape[a] != Shape::Sphere) continue;
+      for (int b : to) {
+        if (bodies_.shape[b] != Shape::Linker) continue;
+        for (int e = 0; e < 2; ++e)
+          if (end_sphere(b, e) < 0 && predictor_.capture_gap(b, e, a, t, rc) <= band) closures.emplace_back(a, b, e);
+      }
+    }
+  };
+  scan(side_s, side_l);
+  scan(side_l, side_s);
+  std::sort(closures.begin(), closures.end());
+  for (const auto& [cs, cl, ce] : closures) {
+    if (rules_allow(cs, cl, ce, t)) {
+      ++stats_.closure_bonds;
+      graph_.add_bond(cs, cl, ce, t);
+      sphere_bonds_[cs].push_back({cl, ce});
+      end_sphere_[2 * (cl - n_spheres_) + ce] = cs;
+      ++stats_.bonds;
+    }
+  }
+  monitor_.set(t, graph_.N_t());
+  if (box_.periodic) {
+    double extent = 0.0;
+    for (int m : bodies_.clusters[g].members) extent = std::max(extent, reference_radius(bodies_, m));
+    if (4.0 * extent > box_.length) {
+      termination_ = Termination::Error;
+      error_ = "a rigid cluster reached a radius of " + std::to_string(extent) + " at t = " + std::to_string(t) +
+               ", more than a quarter of the periodic box (geometry.box_length = " + std::to_string(box_.length) +
+               "); minimum images would be ambiguous: use a larger box or reflective walls";
+    }
+  }
+}
+
+void Simulation::process_capture(int i, const Event& ev, double t) {
+  const int j = ev.partner;
+  const int l = bodies_.shape[i] == Shape::Linker ? i : j, s = l == i ? j : i;
+  ++stats_.captures;
+  if (rules_allow(s, l, ev.dim, t)) {
+    for (int b : {s, l}) {
+      if (bodies_.group[b] < 0) advance(bodies_.kin[b], t);
+      else rebase_cluster(bodies_.clusters[bodies_.group[b]], box_, t);
+    }
+    form_bond(s, l, ev.dim, t);
+    bump(l, t);  // l and s now share a cluster: every member
+    predict_group(l, t);
+    if (!bond_possible()) termination_ = Termination::NoBondPossible;
+  } else {
+    // Nothing changes; the pair may capture again only after leaving the shell.
+    predict(i, t);
+  }
+}
+
+void Simulation::check_initial_captures() {
+  // MODEL.md: rules are checked at t = 0 for pairs already inside the shell.
+  const double rc = params_.bonding.capture_distance;
+  std::vector<std::tuple<int, int, int>> inside;
+  for (int s = 0; s < n_spheres_; ++s) {
+    grid_.for_each_near(grid_.cell_of_body(s), [&](int l) {
+      if (bodies_.shape[l] != Shape::Linker) return;
+      for (int e = 0; e < 2; ++e)
+        if (predictor_.capture_gap(l, e, s, 0.0, rc) <= 0.0) inside.emplace_back(s, l, e);
+    });
+  }
+  std::sort(inside.begin(), inside.end());
+  for (const auto& [s, l, e] : inside) {
+    if (end_sphere(l, e) >= 0) continue;
+    ++stats_.captures;
+    if (rules_allow(s, l, e, 0.0)) form_bond(s, l, e, 0.0);
+  }
+}
+
+bool Simulation::bond_possible() const {
+  // A bond needs a free end and a sphere below its valency in *different*
+  // groups (a rigid cluster never closes a ring later).
+  const BondingParams& bp = params_.bonding;
+  if (bp.end_valency < 1) return false;
+  // Groups are keyed by cluster id, free bodies by -1 - id.
+  int first_group = 0;
+  bool seen = false, spread = false, any_sphere = false, any_end = false;
+  auto note = [&](int b) {
+    const int key = bodies_.group[b] >= 0 ? bodies_.group[b] : -1 - b;
+    if (!seen) first_group = key, seen = true;
+    else if (key != first_group) spread = true;
+  };
+  for (int s = 0; s < n_spheres_; ++s)
+    if (static_cast<int>(sphere_bonds_[s].size()) < bp.sphere_valency) {
+      any_sphere = true;
+      note(s);
+    }
+  for (int l = n_spheres_; l < bodies_.size(); ++l)
+    if (end_sphere(l, 0) < 0 || end_sphere(l, 1) < 0) {
+      any_end = true;
+      note(l);
+    }
+  return any_sphere && any_end && spread;
+}
+
+}  // namespace ringsim

@@ -1,0 +1,184 @@
+// Searches for bodies in rigid clusters (plain conservative advancement with
+// the reference-motion bounds of core/pose.hpp), cluster members' cell exits,
+// and capture events. Part of class Predictor (core/prediction.hpp).
+#include <algorithm>
+#include <cmath>
+
+#include "core/pose.hpp"
+#include "core/prediction.hpp"
+#include "core/prediction_windows.hpp"
+
+namespace ringsim {
+
+using detail::sphere_window;
+using detail::wall_window_impl;
+
+bool Predictor::wall_window(double x, double v, int dir, double reach, double t, double* start, double* end) const {
+  return wall_window_impl(box_.length, x, v, dir, reach, t, start, end);
+}
+
+double Predictor::advance_generic(int i, int j, double t, double limit) {
+  const Vec3 dx = box_.min_image(reference_center(b_, j, t) - reference_center(b_, i, t));
+  const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
+  double enter, leave;
+  if (!sphere_window(dx, dv, reference_radius(b_, i) + reference_radius(b_, j) + delta_, &enter, &leave)) return kNever;
+  ++counts_.cluster_pair_searches;
+  double s = t + enter;
+  const double end = std::min(limit, t + leave);
+  // Any two surface points approach at most at this rate (core/pose.hpp).
+  const double bound = dv.norm() + rotation_bound(b_, i) + rotation_bound(b_, j);
+  if (bound == 0.0) return kNever;
+  for (int step = 0; step < kMaxSteps; ++step) {
+    if (s >= end) return kNever;
+    ++ca_iterations_;
+    ++counts_.cluster_pair;
+    const ContactGeometry g = contact_geometry(i, j, s);
+    const double d = g.sep.distance;
+    if (d <= delta_ && approach_rate(i, j, s, g) < 0.0) return s;
+    if (d <= 0.0) {
+      s += min_step(bound);
+      continue;
+    }
+    const double target = 0.5 * std::min(d, delta_);
+    double proven = d;
+    if (!g.certified) {
+      // An unproven distance may be too large: step from a separating plane.
+      const RankedNormals r = rank_normals(i, j, s, g);
+      proven = r.value[r.best];
+    }
+    s += std::max((proven - target) / bound, min_step(bound));
+  }
+  failed_ = true;
+  return kNever;
+}
+
+WallHit Predictor::wall_generic(int i, double t, double limit) {
+  const double L = box_.length;
+  const Vec3 X = reference_center(b_, i, t);
+  const Vec3& V = reference_velocity(b_, i);
+  const double reach = reference_radius(b_, i) + delta_;
+  const double rot = rotation_bound(b_, i);
+  const Species& sp = b_.sp(i);
+  WallHit best;
+  best.time = limit;
+  for (int d = 0; d < 3; ++d) {
+    for (int dir : {-1, +1}) {
+      double sc, end = best.time;
+      if (!wall_window(X[d], V[d], dir, reach, t, &sc, &end)) continue;
+      const double bound = std::abs(V[d]) + rot;
+      if (bound == 0.0) continue;
+      Vec3 n = Vec3::Zero();
+      n[d] = dir;
+      const double step_floor = min_step(bound);
+      for (int step = 0; sc < end; ++step) {
+        if (step == kMaxSteps) {
+          failed_ = true;
+          break;
+        }
+        ++ca_iterations_;
+        ++counts_.cluster_wall;
+        const Vec3 c = body_center(b_, i, sc);
+        const double support =
+            sp.shape == Shape::Sphere ? sp.radius : geom::cylinder_support(geom::Cylinder{c, body_axis(b_, i, sc), sp.radius, sp.half_length}, n);
+        const double g = (dir > 0 ? L - c[d] : c[d]) - support;
+        if (g <= delta_ && wall_contact(i, sc, n, nullptr) < 0.0) {
+          best = {sc, d, dir};
+          break;
+        }
+        if (g <= 0.0) {
+          sc += step_floor;
+          continue;
+        }
+        sc += std::max((g - 0.5 * std::min(g, delta_)) / bound, step_floor);
+      }
+    }
+  }
+  if (best.time >= limit) best.time = kNever;
+  return best;
+}
+
+double Predictor::leave_cell(int i, double t, double limit, const Vec3& lo, double w) {
+  const double bound = reference_velocity(b_, i).norm() + point_rotation_bound(b_, i, 0.0);
+  if (bound == 0.0) return kNever;
+  // Fires once the centre is more than half the slack outside (so a centre
+  // resting on a face does not fire again and again), at most 3/4 of it out.
+  // The slack also sets the smallest step (slack / 4 over the speed bound), so
+  // a centre gliding along a face costs a bounded number of steps.
+  const double eps = cell_slack();
+  const double floor_step = 0.25 * eps / bound;
+  double s = t;
+  for (int step = 0; step < kMaxSteps && s < limit; ++step) {
+    ++counts_.cell;
+    Vec3 x = body_center(b_, i, s);
+    if (box_.periodic)
+      for (int d = 0; d < 3; ++d) x[d] -= box_.length * std::floor(x[d] / box_.length);
+    double f = kNever;  // distance to the nearest face, negative outside
+    for (int d = 0; d < 3; ++d) f = std::min({f, x[d] - lo[d], lo[d] + w - x[d]});
+    if (f <= -0.5 * eps) return s;
+    s += std::max((f + 0.5 * eps) / bound, floor_step);
+  }
+  if (s < limit) failed_ = true;
+  return kNever;
+}
+
+double Predictor::capture_gap(int l, int end, int s, double t, double rc) const {
+  const double h = b_.sp(l).half_length;
+  const Vec3 p = body_center(b_, l, t) + (end == 0 ? h : -h) * body_axis(b_, l, t);
+  return box_.min_image(body_center(b_, s, t) - p).norm() - b_.sp(s).radius - rc;
+}
+
+double Predictor::capture(int l, int end, int s, double t, double limit, double rc) {
+  const double h = b_.sp(l).half_length;
+  const double rs = b_.sp(s).radius;
+  // Window: the end point stays within h (+ reach) of l's reference point, the
+  // sphere's centre within its reach of its own.
+  const double rl = in_cluster(b_, l) ? b_.reach[l] + h : h;
+  const double rsph = in_cluster(b_, s) ? b_.reach[s] : 0.0;
+  const Vec3 dx = box_.min_image(reference_center(b_, s, t) - reference_center(b_, l, t));
+  const Vec3 dv = reference_velocity(b_, s) - reference_velocity(b_, l);
+  double enter, leave;
+  if (!sphere_window(dx, dv, rl + rsph + rs + rc + 2.0 * delta_, &enter, &leave)) return kNever;
+  ++counts_.capture_searches;
+  const double stop = std::min(limit, t + leave);
+  const double bound = dv.norm() + point_rotation_bound(b_, l, h) + point_rotation_bound(b_, s, 0.0);
+  if (bound == 0.0) return kNever;
+  const double floor_step = min_step(bound);
+  double x = t;
+  double g = capture_gap(l, end, s, x, rc);
+  // Inside the shell or its firing band: first find the way out (to beyond
+  // 2 delta, a hysteresis that keeps a failed capture from firing again).
+  for (int step = 0; g <= (step == 0 ? delta_ : 2.0 * delta_); ++step) {
+    if (step == kMaxSteps) {
+      failed_ = true;
+      return kNever;
+    }
+    x += std::max((2.0 * delta_ - g) / bound, floor_step);
+    if (x >= stop) return kNever;
+    ++ca_iterations_;
+    ++counts_.capture;
+    g = capture_gap(l, end, s, x, rc);
+  }
+  x = std::max(x, t + enter);
+  for (int step = 0; step < kMaxSteps; ++step) {
+    if (x >= stop) return kNever;
+    ++ca_iterations_;
+    ++counts_.capture;
+    g = capture_gap(l, end, s, x, rc);
+    if (g <= delta_) {
+      // In the firing band: a capture if the gap is closing.
+      const Vec3 cl = body_center(b_, l, x);
+      const Vec3 p = cl + (end == 0 ? h : -h) * body_axis(b_, l, x);
+      const Vec3 cs = p + box_.min_image(body_center(b_, s, x) - p);
+      const Vec3 n = (cs - p).normalized();
+      const double rate = n.dot(shape_point_velocity(b_, s, x, cs, cs) - shape_point_velocity(b_, l, x, p, cl));
+      if (rate < 0.0) return x;
+      x += floor_step;
+      continue;
+    }
+    x += std::max((g - 0.5 * delta_) / bound, floor_step);
+  }
+  failed_ = true;
+  return kNever;
+}
+
+}  // namespace ringsim
