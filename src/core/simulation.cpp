@@ -33,12 +33,15 @@ double interaction_range(const BodyStore& b) {
   return 2.0 * r;
 }
 
-int count_spheres(const BodyStore& b) {
+// The bond graph numbers spheres first, then linkers (as build_scene does).
+int count_spheres(const BodyStore& b, bool bonding) {
   int n = 0;
   while (n < b.size() && b.shape[n] == Shape::Sphere) ++n;
-  for (int i = n; i < b.size(); ++i)
-    if (b.shape[i] == Shape::Sphere)
-      throw std::invalid_argument("bonding needs body ids ordered spheres first, then linkers");
+  for (int i = n; i < b.size(); ++i) {
+    if (b.shape[i] != Shape::Sphere) continue;
+    if (bonding) throw std::invalid_argument("bonding needs body ids ordered spheres first, then linkers");
+    ++n;  // without bonding the graph only counts objects (all monomers)
+  }
   return n;
 }
 }  // namespace
@@ -56,7 +59,7 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
       box_{params.geometry.box_length, params.geometry.boundary == Boundary::Periodic},
       queue_(make_queue(params.run.queue)),
       predictor_(bodies_, box_, params.run.contact_tolerance),
-      n_spheres_(count_spheres(bodies_)),
+      n_spheres_(count_spheres(bodies_, params.bonding.enabled)),
       graph_(n_spheres_, bodies_.size() - n_spheres_),
       monitor_(params.run.sample_interval, static_cast<std::size_t>(params.run.mser_min_samples),
                static_cast<std::size_t>(params.run.mser_check_every), static_cast<std::size_t>(params.run.mser_batch)) {

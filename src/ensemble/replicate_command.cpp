@@ -78,6 +78,7 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   j["wall_collisions"] = s.wall_collisions;
   j["cell_crossings"] = s.cell_crossings;
   j["stale_events"] = s.stale;
+  j["memo_resumed"] = s.memo_resumed;
   j["tc_collisions"] = s.tc_collisions;
   j["stick_contacts"] = s.stick;
   j["slide_contacts"] = s.slide;
