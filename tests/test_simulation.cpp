@@ -9,6 +9,7 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -290,6 +291,31 @@ TEST(Cli, ReplicateSnapshotWritesTheFinalConfiguration) {
       EXPECT_GE(b.x[d], 0.0);
       EXPECT_LE(b.x[d], 50.0);
     }
+  std::remove(path.c_str());
+}
+
+TEST(Cli, ReplicateSeriesFeedsTheMserCommand) {
+  // N_t sampled every 0.5 over 40 time units: 81 samples from 600 down, each
+  // no larger than the previous (bonds only merge objects); `ringsim mser`
+  // reads the file as written.
+  const std::string path = ::testing::TempDir() + "ringsim_series_test.txt";
+  std::remove(path.c_str());
+  Cmd c = run_cli("replicate --seed 6 --set run.t_max=40 --set run.sample_interval=0.5 --series " + path + " --json");
+  ASSERT_EQ(c.status, 0) << c.out;
+  std::ifstream in(path);
+  std::string line;
+  std::vector<double> v;
+  while (std::getline(in, line))
+    if (!line.empty() && line[0] != '#') v.push_back(std::stod(line));
+  ASSERT_EQ(v.size(), 81u);
+  EXPECT_EQ(v.front(), 600.0);
+  for (std::size_t k = 1; k < v.size(); ++k) EXPECT_LE(v[k], v[k - 1]) << k;
+  const nlohmann::json j = nlohmann::json::parse(c.out);
+  c = run_cli("mser " + path);
+  ASSERT_EQ(c.status, 0) << c.out;
+  const nlohmann::json m = nlohmann::json::parse(c.out);
+  EXPECT_EQ(m["batches"].get<int>(), 16);  // floor(81 / 5)
+  EXPECT_EQ(v.back(), static_cast<double>(j["N_t"].get<int>()));  // the sample at t_max is the final state
   std::remove(path.c_str());
 }
 

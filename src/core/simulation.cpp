@@ -359,7 +359,9 @@ bool Simulation::step() {
   const int i = queue_->top();
   const Event ev = events_[i];
   const double t_end = params_.run.t_max;
-  if (params_.bonding.enabled && params_.run.steady_state && monitor_.advance(std::min(ev.time, t_end))) {
+  // N_t(t) is sampled whenever bonding is on (replicate --series); it ends
+  // the run only with run.steady_state.
+  if (params_.bonding.enabled && monitor_.advance(std::min(ev.time, t_end)) && params_.run.steady_state) {
     // N_t(t) is steady (MSER): the state is unchanged since the last event,
     // so the run ends at the last sample used.
     termination_ = Termination::SteadyState;

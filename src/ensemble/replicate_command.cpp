@@ -45,10 +45,20 @@ void write_snapshot(const Simulation& sim, const SimParams& params, std::uint64_
   if (!out) throw std::runtime_error("could not write snapshot file " + path + " (disk full?)");
 }
 
+void write_series(const Simulation& sim, const std::string& path) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot open series file " + path + " for writing");
+  out << "# N_t sampled every " << sim.params().run.sample_interval << " time units from t = 0 (ringsim "
+      << kVersion << ")\n";
+  for (double v : sim.monitor().samples()) out << v << '\n';
+  out.close();
+  if (!out) throw std::runtime_error("could not write series file " + path + " (disk full?)");
+}
+
 }  // namespace
 
 nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::uint64_t replicate,
-                             const std::string& snapshot_path) {
+                             const std::string& snapshot_path, const std::string& series_path) {
   const auto start = std::chrono::steady_clock::now();
   SceneReport scene;
   BodyStore bodies = build_scene(params, seed, replicate, &scene);
@@ -60,6 +70,7 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   }
   const Termination term = sim.run();
   if (!snapshot_path.empty() && term != Termination::Error) write_snapshot(sim, params, seed, replicate, snapshot_path);
+  if (!series_path.empty()) write_series(sim, series_path);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   const MechanicalTotals totals = mechanical_totals(sim.bodies(), sim.time());
@@ -143,6 +154,7 @@ void add_replicate_command(CLI::App& app, ReplicateOptions& opt) {
       "  ringsim replicate --seed 1 --validate --set run.t_max=10   check invariants after every event\n"
       "  ringsim replicate jobs/scenarios/4-passive-selection.toml --seed 3 --snapshot final.xyz\n"
       "      then: /usr/bin/python3 scripts/render_snapshot.py final.xyz -o final.png\n"
+      "  ringsim replicate --seed 2 --series nt.txt && ringsim mser nt.txt   steady-state analysis of N_t(t)\n"
       "Configuration keys and ranges: docs/CONFIG.md (or `ringsim keys`).");
   cmd->add_option("scenario", opt.scenario, "Scenario TOML file listing deviations from the defaults (optional)")
       ->check(CLI::ExistingFile);
@@ -154,13 +166,16 @@ void add_replicate_command(CLI::App& app, ReplicateOptions& opt) {
   cmd->add_option("--snapshot", opt.snapshot,
                   "Write the final configuration to FILE: extended XYZ (OVITO), or legacy VTK (ParaView) when FILE "
                   "ends in .vtk; render with scripts/render_snapshot.py");
+  cmd->add_option("--series", opt.series,
+                  "Write the sampled N_t(t) series (one value per line, every run.sample_interval from t = 0) to "
+                  "FILE; inspect it with `ringsim mser FILE`");
 }
 
 int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
   std::vector<std::string> overrides = opt.overrides;
   if (opt.validate) overrides.push_back("run.validate=true");
   const SimParams params = load_config_file(opt.scenario, overrides);
-  const nlohmann::json j = run_replicate(params, opt.seed, opt.replicate, opt.snapshot);
+  const nlohmann::json j = run_replicate(params, opt.seed, opt.replicate, opt.snapshot, opt.series);
   if (opt.json) {
     out << j.dump() << '\n';
   } else {
