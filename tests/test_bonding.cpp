@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <random>
 
+#include "body_builder.hpp"
 #include "core/cluster.hpp"
 #include "core/motion.hpp"
 #include "core/pose.hpp"
@@ -18,10 +19,8 @@
 namespace ringsim {
 namespace {
 
-struct Init {
-  Shape shape;
-  Vec3 x, v, axis, omega;
-};
+using test::Init;
+using test::make_bodies;
 
 SimParams bonding_params() {
   SimParams p;
@@ -32,20 +31,6 @@ SimParams bonding_params() {
   p.run.t_max = 50.0;
   p.run.steady_state = false;
   return p;
-}
-
-// Spheres must come first (ids: spheres, then linkers).
-BodyStore make_bodies(const SimParams& p, const std::vector<Init>& init) {
-  BodyStore b;
-  b.species[0] = make_species(Shape::Sphere, p);
-  b.species[1] = make_species(Shape::Linker, p);
-  for (const Init& in : init) {
-    b.shape.push_back(in.shape);
-    Kinematics k = make_kinematics(in.x, in.v, in.axis.normalized());
-    set_angular_velocity(k, b.species[static_cast<int>(in.shape)], in.omega);
-    b.kin.push_back(k);
-  }
-  return b;
 }
 
 const Vec3 kZero = Vec3::Zero();
@@ -69,7 +54,7 @@ TEST(Capture, HeadOnSphereIsCapturedWhenTheGapReachesTheCaptureDistance) {
   const double t = run_to_first_bond(sim);
   EXPECT_NEAR(t, 6.9, 1e-8);
   EXPECT_EQ(sim.stats().bonds, 1);
-  EXPECT_EQ(sim.end_sphere(1, 0), 0);
+  EXPECT_EQ(sim.graph().sphere_of(1, 0), 0);
   EXPECT_EQ(sim.graph().N_t(), 1);
   // One rigid body: the momentum (-m_S, 0, 0) is shared.
   const BodyStore& s = sim.bodies();

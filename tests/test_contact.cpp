@@ -13,6 +13,7 @@
 
 #include <cmath>
 
+#include "body_builder.hpp"
 #include "core/contact.hpp"
 #include "core/motion.hpp"
 #include "core/scene.hpp"
@@ -22,10 +23,8 @@
 namespace ringsim {
 namespace {
 
-struct Init {
-  Shape shape;
-  Vec3 x, v, axis, omega;
-};
+using test::Init;
+using test::make_bodies;
 
 SimParams two_body_params(double e, double mu_s = 0.0, double nu = 0.0) {
   SimParams p;
@@ -39,21 +38,6 @@ SimParams two_body_params(double e, double mu_s = 0.0, double nu = 0.0) {
   p.contact.friction_rule = CombineRule::Min;  // keeps the pair's coefficient equal to the bodies'
   p.run.t_max = 50.0;
   return p;
-}
-
-BodyStore make_bodies(const SimParams& p, const std::vector<Init>& init) {
-  BodyStore b;
-  b.species[0] = make_species(Shape::Sphere, p);
-  b.species[1] = make_species(Shape::Linker, p);
-  for (const Init& in : init) {
-    b.shape.push_back(in.shape);
-    Kinematics k = make_kinematics(in.x, in.v, in.axis.normalized());
-    set_angular_velocity(k, b.species[static_cast<int>(in.shape)], in.omega);
-    b.kin.push_back(k);
-  }
-  b.counter.assign(init.size(), 0);
-  b.last_collision.assign(init.size(), -kNever);
-  return b;
 }
 
 // Runs until the first body-body collision has been processed.

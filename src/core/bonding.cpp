@@ -18,7 +18,7 @@ namespace ringsim {
 bool Simulation::rules_allow(int s, int l, int end, double t) {
   const BondingParams& bp = params_.bonding;
   // 1. valency: a free end, a sphere below its valency.
-  if (bp.end_valency < 1 || end_sphere(l, end) >= 0 || static_cast<int>(sphere_bonds_[s].size()) >= bp.sphere_valency) {
+  if (bp.end_valency < 1 || graph_.sphere_of(l, end) >= 0 || graph_.degree(s) >= bp.sphere_valency) {
     ++stats_.rejected_valency;
     return false;
   }
@@ -26,7 +26,7 @@ bool Simulation::rules_allow(int s, int l, int end, double t) {
   const Vec3 out = outward_axis(u, end);
   // 2. bond angle at the sphere, against every linker already bonded to it.
   if (bp.angle_filter) {
-    for (const auto& [l2, e2] : sphere_bonds_[s]) {
+    for (const auto& [l2, e2] : graph_.linkers_of(s)) {
       if (!angle_ok(bond_angle_deg(out, outward_axis(body_axis(bodies_, l2, t), e2)), bp)) {
         ++stats_.rejected_angle;
         return false;
@@ -42,11 +42,11 @@ bool Simulation::rules_allow(int s, int l, int end, double t) {
     return planarity_ok(dihedral_deg(uc, n_end0, n_end1), bp);
   };
   // (a) the new linker l: neighbours at s (this end) and at the sphere on its other end.
-  const int s_other = end_sphere(l, 1 - end);
+  const int s_other = graph_.sphere_of(l, 1 - end);
   if (s_other >= 0) {
-    for (const auto& [la, ea] : sphere_bonds_[s]) {
+    for (const auto& [la, ea] : graph_.linkers_of(s)) {
       const Vec3 na = outward_axis(body_axis(bodies_, la, t), ea);
-      for (const auto& [lb, eb] : sphere_bonds_[s_other]) {
+      for (const auto& [lb, eb] : graph_.linkers_of(s_other)) {
         if (lb == l) continue;
         const Vec3 nb = outward_axis(body_axis(bodies_, lb, t), eb);
         if (!(end == 0 ? planar(u, na, nb) : planar(u, nb, na))) {
@@ -57,11 +57,11 @@ bool Simulation::rules_allow(int s, int l, int end, double t) {
     }
   }
   // (b) each linker c already at s: the new linker becomes its neighbour at s.
-  for (const auto& [c, ec] : sphere_bonds_[s]) {
-    const int s3 = end_sphere(c, 1 - ec);
+  for (const auto& [c, ec] : graph_.linkers_of(s)) {
+    const int s3 = graph_.sphere_of(c, 1 - ec);
     if (s3 < 0) continue;
     const Vec3 uc = body_axis(bodies_, c, t);
-    for (const auto& [l3, e3] : sphere_bonds_[s3]) {
+    for (const auto& [l3, e3] : graph_.linkers_of(s3)) {
       if (l3 == c) continue;
       const Vec3 n3 = outward_axis(body_axis(bodies_, l3, t), e3);
       if (!(ec == 0 ? planar(uc, out, n3) : planar(uc, n3, out))) {
@@ -75,12 +75,12 @@ bool Simulation::rules_allow(int s, int l, int end, double t) {
 
 void Simulation::form_bond(int s, int l, int end, double t) {
   graph_.add_bond(s, l, end, t);
-  sphere_bonds_[s].push_back({l, end});
-  end_sphere_[2 * (l - n_spheres_) + end] = s;
   ++stats_.bonds;
-  monitor_.set(t, graph_.N_t());
   const int gs = bodies_.group[s], gl = bodies_.group[l];
-  if (gs >= 0 && gs == gl) return;  // a ring closing inside one cluster
+  if (gs >= 0 && gs == gl) {  // a ring closing inside one cluster
+    monitor_.set(t, graph_.N_t());
+    return;
+  }
   // Rigid bond: the two groups become one rigid body. Pairs the merge puts
   // inside one cluster are checked now (this is how a rigid ring closes).
   auto members = [&](int b) {
@@ -98,7 +98,7 @@ void Simulation::form_bond(int s, int l, int end, double t) {
       for (int b : to) {
         if (bodies_.shape[b] != Shape::Linker) continue;
         for (int e = 0; e < 2; ++e)
-          if (end_sphere(b, e) < 0 && predictor_.capture_gap(b, e, a, t, rc) <= band) closures.emplace_back(a, b, e);
+          if (graph_.sphere_of(b, e) < 0 && predictor_.capture_gap(b, e, a, t, rc) <= band) closures.emplace_back(a, b, e);
       }
     }
   };
@@ -109,8 +109,6 @@ void Simulation::form_bond(int s, int l, int end, double t) {
     if (rules_allow(cs, cl, ce, t)) {
       ++stats_.closure_bonds;
       graph_.add_bond(cs, cl, ce, t);
-      sphere_bonds_[cs].push_back({cl, ce});
-      end_sphere_[2 * (cl - n_spheres_) + ce] = cs;
       ++stats_.bonds;
     }
   }
@@ -159,7 +157,7 @@ void Simulation::check_initial_captures() {
   }
   std::sort(inside.begin(), inside.end());
   for (const auto& [s, l, e] : inside) {
-    if (end_sphere(l, e) >= 0) continue;
+    if (graph_.sphere_of(l, e) >= 0) continue;
     ++stats_.captures;
     if (rules_allow(s, l, e, 0.0)) form_bond(s, l, e, 0.0);
   }
@@ -179,12 +177,12 @@ bool Simulation::bond_possible() const {
     else if (key != first_group) spread = true;
   };
   for (int s = 0; s < n_spheres_; ++s)
-    if (static_cast<int>(sphere_bonds_[s].size()) < bp.sphere_valency) {
+    if (graph_.degree(s) < bp.sphere_valency) {
       any_sphere = true;
       note(s);
     }
   for (int l = n_spheres_; l < bodies_.size(); ++l)
-    if (end_sphere(l, 0) < 0 || end_sphere(l, 1) < 0) {
+    if (graph_.sphere_of(l, 0) < 0 || graph_.sphere_of(l, 1) < 0) {
       any_end = true;
       note(l);
     }

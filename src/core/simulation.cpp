@@ -81,9 +81,7 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   bodies_.body_axis.assign(n, Vec3::UnitZ());
   bodies_.reach.assign(n, 0.0);
   bodies_.clusters.clear();
-  sphere_bonds_.assign(n_spheres_, {});
   memo_.assign(n, {});
-  end_sphere_.assign(2 * (n - n_spheres_), -1);
   for (int i = 0; i < n; ++i) grid_.insert(i, bodies_.kin[i].x);
   monitor_.set(0.0, graph_.N_t());
   if (params_.bonding.enabled) check_initial_captures();
@@ -173,9 +171,9 @@ void Simulation::predict(int i, double t) {
   const BondingParams& bp = params_.bonding;
   for (int j : capture_partners_) {
     const int l = sphere_i ? j : i, s = sphere_i ? i : j;
-    if (static_cast<int>(sphere_bonds_[s].size()) >= bp.sphere_valency || bp.end_valency < 1) continue;
+    if (graph_.degree(s) >= bp.sphere_valency || bp.end_valency < 1) continue;
     for (int e = 0; e < 2; ++e) {
-      if (end_sphere(l, e) >= 0) continue;
+      if (graph_.end_bonded(l, e)) continue;
       const double tc = predictor_.capture(l, e, s, t, best.time, bp.capture_distance);
       if (tc < best.time) {
         best.time = tc;

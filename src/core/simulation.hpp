@@ -92,9 +92,6 @@ class Simulation {
   const BondGraph& graph() const { return graph_; }
   // The sampled N_t(t) series and the MSER result behind a steady-state end.
   const SteadyStateMonitor& monitor() const { return monitor_; }
-  // Bonds of a sphere: (linker, end) pairs; the sphere bonded to a linker end (-1: free).
-  const std::vector<std::pair<int, int>>& sphere_bonds(int s) const { return sphere_bonds_[s]; }
-  int end_sphere(int linker, int end) const { return end_sphere_[2 * (linker - n_spheres_) + end]; }
 
   // Moves every body's reference time to t (after the last processed event).
   void synchronize(double t);
@@ -139,8 +136,6 @@ class Simulation {
   int n_spheres_ = 0;
   BondGraph graph_;
   SteadyStateMonitor monitor_;
-  std::vector<std::vector<std::pair<int, int>>> sphere_bonds_;
-  std::vector<int> end_sphere_;
   std::vector<int> capture_partners_;  // scratch of predict()
   std::vector<std::pair<double, int>> candidates_;  // scratch of predict()
   // Pair-search memo. A search of pair (i, j) from `from` with horizon
