@@ -22,6 +22,7 @@ const char* to_string(Termination t) {
     case Termination::NoBondPossible: return "no_bond_possible";
     case Termination::EventBudget: return "event_budget";
     case Termination::Error: return "error";
+    case Termination::Interrupted: return "interrupted";
   }
   return "?";
 }
@@ -369,6 +370,10 @@ bool Simulation::step() {
   if (ev.time > t_end) {
     termination_ = Termination::TimeLimit;
     now_ = t_end;
+    return false;
+  }
+  if (stop_flag_ && stats_.events % kStopCheckEvents == 0 && stop_flag_->load(std::memory_order_relaxed)) {
+    termination_ = Termination::Interrupted;
     return false;
   }
   if (params_.run.max_events > 0 && stats_.events >= params_.run.max_events) {

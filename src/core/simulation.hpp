@@ -19,6 +19,7 @@
 //  7. validation mode: check every invariant at the event time.
 // Prediction never changes state; state changes only in steps 3 and 5.
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -64,7 +65,9 @@ struct RunStats {
   std::int64_t plane_evaluations = 0; // separating-plane bound evaluations
 };
 
-enum class Termination { Running, TimeLimit, SteadyState, NoBondPossible, EventBudget, Error };
+// Interrupted: stopped from outside (set_stop_flag), e.g. by SIGTERM; the
+// replicate is incomplete and an ensemble does not record it.
+enum class Termination { Running, TimeLimit, SteadyState, NoBondPossible, EventBudget, Error, Interrupted };
 const char* to_string(Termination t);
 
 class Validator;
@@ -103,6 +106,10 @@ class Simulation {
 
   // Attach an invariant checker run after every processed event.
   void set_validator(Validator* v) { validator_ = v; }
+  // The run ends with Termination::Interrupted soon after *flag turns true
+  // (checked every kStopCheckEvents events: a relaxed atomic load).
+  void set_stop_flag(const std::atomic<bool>* flag) { stop_flag_ = flag; }
+  static constexpr std::uint64_t kStopCheckEvents = 1024;
 
   // Event log for tests comparing queue implementations: (time, kind, i, j).
   struct LoggedEvent { double time; EventType type; int a; int b; };
@@ -136,6 +143,7 @@ class Simulation {
   int n_spheres_ = 0;
   BondGraph graph_;
   SteadyStateMonitor monitor_;
+  const std::atomic<bool>* stop_flag_ = nullptr;
   std::vector<int> capture_partners_;  // scratch of predict()
   std::vector<std::pair<double, int>> candidates_;  // scratch of predict()
   // Pair-search memo. A search of pair (i, j) from `from` with horizon
