@@ -838,7 +838,9 @@ class Loader {
   }
 };
 
-std::string read_file(const std::string& path) {
+}  // namespace
+
+std::string read_scenario_text(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) {
     throw ConfigError("configuration file \"" + path + "\" not found");
@@ -857,6 +859,8 @@ std::string read_file(const std::string& path) {
   if (in.bad()) throw ConfigError("cannot read configuration file \"" + path + "\"");
   return ss.str();
 }
+
+namespace {
 
 std::string toml_value(const KeyDesc& d, const SimParams& p) {
   const Value v = d.get(p);
@@ -908,7 +912,7 @@ Scenario load_scenario(const std::string& toml_text, const std::vector<std::stri
 
 Scenario load_scenario_file(const std::string& path, const std::vector<std::string>& overrides) {
   if (path.empty()) return load_scenario("", overrides, "<defaults>");
-  return load_scenario(read_file(path), overrides, path);
+  return load_scenario(read_scenario_text(path), overrides, path);
 }
 
 SimParams load_config(const std::string& toml_text, const std::vector<std::string>& overrides,

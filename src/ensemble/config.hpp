@@ -55,6 +55,10 @@ const std::vector<KeyInfo>& config_keys();
 Scenario load_scenario(const std::string& toml_text, const std::vector<std::string>& overrides,
                        const std::string& source_name);
 
+// The text of a scenario file; ConfigError naming the path when it is
+// missing, a directory or unreadable.
+std::string read_scenario_text(const std::string& path);
+
 // Read and parse a scenario file; an empty path means built-in defaults (plus
 // overrides). A missing or unreadable file is a ConfigError naming the path.
 Scenario load_scenario_file(const std::string& path, const std::vector<std::string>& overrides);

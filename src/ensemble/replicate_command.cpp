@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 #include <ostream>
 
@@ -58,7 +59,7 @@ void write_series(const Simulation& sim, const std::string& path) {
 }  // namespace
 
 nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::uint64_t replicate,
-                             const std::string& snapshot_path, const std::string& series_path) {
+                             const ReplicateIo& io) {
   const auto start = std::chrono::steady_clock::now();
   SceneReport scene;
   BodyStore bodies = build_scene(params, seed, replicate, &scene);
@@ -68,9 +69,12 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
     validator = std::make_unique<Validator>(sim);
     sim.set_validator(validator.get());
   }
+  sim.set_stop_flag(io.stop);
   const Termination term = sim.run();
-  if (!snapshot_path.empty() && term != Termination::Error) write_snapshot(sim, params, seed, replicate, snapshot_path);
-  if (!series_path.empty()) write_series(sim, series_path);
+  if (!io.snapshot_path.empty() && term != Termination::Error)
+    write_snapshot(sim, params, seed, replicate, io.snapshot_path);
+  if (!io.series_path.empty()) write_series(sim, io.series_path);
+  if (io.series) *io.series = sim.monitor().samples();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   const MechanicalTotals totals = mechanical_totals(sim.bodies(), sim.time());
@@ -142,6 +146,51 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   return j;
 }
 
+ReplicateRecord to_record(const nlohmann::json& j) {
+  ReplicateRecord r{};
+  r.id = j.at("replicate").get<std::uint64_t>();
+  r.seed = j.at("seed").get<std::uint64_t>();
+  const std::string term = j.at("termination").get<std::string>();
+  std::snprintf(r.termination, sizeof r.termination, "%s", term.c_str());
+  const bool ok = term == "steady_state" || term == "t_max" || term == "no_bond_possible";
+  r.status = static_cast<std::int8_t>(ok ? RecordStatus::Ok : RecordStatus::Failed);
+  if (j.contains("error")) std::snprintf(r.error, sizeof r.error, "%s", j["error"].get<std::string>().c_str());
+  else if (term == "event_budget") std::snprintf(r.error, sizeof r.error, "%s", "event budget run.max_events exhausted");
+  r.t_end = j.at("t_end").get<double>();
+  r.events = j.at("events").get<std::uint64_t>();
+  r.wall_seconds = j.at("wall_seconds").get<double>();
+  r.N_t = j.at("N_t").get<std::int32_t>();
+  r.N_tar = j.at("N_tar").get<std::int32_t>();
+  r.N_viab = j.at("N_viab").get<std::int32_t>();
+  r.N_nv1 = j.at("N_nv1").get<std::int32_t>();
+  r.N_nv2 = j.at("N_nv2").get<std::int32_t>();
+  r.N_nv3 = j.at("N_nv3").get<std::int32_t>();
+  r.N_cyc = j.at("N_cyc").get<std::int32_t>();
+  r.Phi_obj = j.at("Phi_obj").get<double>();
+  r.Phi_viab = j.at("Phi_viab").get<double>();
+  r.S4 = j.at("S4").is_null() ? std::numeric_limits<double>::quiet_NaN() : j["S4"].get<double>();
+  r.M_mono = j.at("M_mono").get<double>();
+  r.M_mono_S = j.at("M_mono_S").get<double>();
+  r.M_mono_L = j.at("M_mono_L").get<double>();
+  r.tau_tar = j.at("tau_tar").get<double>();
+  r.tau_tar_censored = j.at("tau_tar_censored").get<bool>() ? 1 : 0;
+  for (const auto& [key, count] : j.at("rings").items()) {
+    const int m = std::stoi(key);
+    const int n = count.get<int>();
+    if (m < RingHistogram::kMinBinned) r.ring_2 += n;
+    else if (m > RingHistogram::kMaxBinned) r.ring_over += n;
+    else r.ring[m - RingHistogram::kMinBinned] += n;
+  }
+  r.collisions = j.at("collisions").get<std::uint64_t>();
+  r.captures = j.at("captures").get<std::uint64_t>();
+  r.bonds = j.at("bonds").get<std::int32_t>();
+  r.closure_bonds = j.at("closure_bonds").get<std::int32_t>();
+  r.mser_truncation = j.contains("mser") ? j["mser"].at("truncation").get<std::int64_t>() : -1;
+  r.packing_fraction = j.at("packing_fraction").get<double>();
+  r.mixing = j.at("mixing").get<double>();
+  return r;
+}
+
 void add_replicate_command(CLI::App& app, ReplicateOptions& opt) {
   CLI::App* cmd = app.add_subcommand("replicate",
                                      "Run one replicate to steady state (or t_max) and print the study's observables "
@@ -175,7 +224,7 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
   std::vector<std::string> overrides = opt.overrides;
   if (opt.validate) overrides.push_back("run.validate=true");
   const SimParams params = load_config_file(opt.scenario, overrides);
-  const nlohmann::json j = run_replicate(params, opt.seed, opt.replicate, opt.snapshot, opt.series);
+  const nlohmann::json j = run_replicate(params, opt.seed, opt.replicate, ReplicateIo{opt.snapshot, opt.series});
   if (opt.json) {
     out << j.dump() << '\n';
   } else {

@@ -2,6 +2,7 @@
 // `ringsim replicate [SCENARIO.toml] --seed S [--set SECTION.KEY=VALUE]... [--json]`
 // Runs one replicate and prints its statistics (a table, or one JSON object).
 
+#include <atomic>
 #include <cstdint>
 #include <iosfwd>
 #include <string>
@@ -9,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/replicate_record.hpp"
 #include "core/params.hpp"
 
 namespace CLI {
@@ -28,15 +30,28 @@ struct ReplicateOptions {
   std::string series;                 // sampled N_t(t), one value per line (for `ringsim mser`); empty: none
 };
 
+// Optional inputs and outputs of one replicate beyond its JSON result.
+struct ReplicateIo {
+  std::string snapshot_path;  // final configuration: .xyz (extended XYZ) or .vtk; empty: none
+  std::string series_path;    // N_t samples, one per line (for `ringsim mser`); empty: none
+  std::vector<double>* series = nullptr;    // receives the same N_t samples
+  const std::atomic<bool>* stop = nullptr;  // ends the run as "interrupted" when it turns true
+};
+
 // Runs one replicate with the given settings and returns the result object
 // (the `--json` output). With a snapshot path, also writes the final
 // configuration (core/snapshot.hpp): extended XYZ, or legacy VTK when the
 // path ends in ".vtk". Throws ConfigError / SceneError on bad input,
 // std::runtime_error when the snapshot cannot be written.
-// With a series path, writes the N_t samples of the steady-state monitor
-// (one per line, `run.sample_interval` apart, from t = 0).
+// The N_t series holds the steady-state monitor's samples,
+// `run.sample_interval` apart from t = 0.
 nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::uint64_t replicate,
-                             const std::string& snapshot_path = "", const std::string& series_path = "");
+                             const ReplicateIo& io = {});
+
+// The result object of run_replicate as one row of the ensemble's table.
+// Status Ok for the study's normal ends (steady_state, t_max,
+// no_bond_possible); Failed, with the reason in `error`, otherwise.
+ReplicateRecord to_record(const nlohmann::json& result);
 
 void add_replicate_command(CLI::App& app, ReplicateOptions& opt);
 int replicate_main(const ReplicateOptions& opt, std::ostream& out);

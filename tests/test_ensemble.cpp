@@ -1,0 +1,335 @@
+// The MPI ensemble: result file round trip and crash safety, `ringsim run`
+// under mpirun with 1, 2 and 3 ranks (identical rows), kill -9 and resume,
+// a graceful stop by signal, refusals, failure isolation, `aggregate`.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include "analysis/ensemble_summary.hpp"
+#include "ensemble/aggregate_command.hpp"
+#include "ensemble/results_file.hpp"
+
+namespace fs = std::filesystem;
+using namespace ringsim;
+
+namespace {
+
+// A small scene whose replicates take a fraction of a second, with bonds
+// and run-to-run variation (t_max, not steady state, ends them).
+const std::string kFast =
+    " --set init.spheres=60 --set init.linkers=60 --set geometry.box_length=25 --set run.t_max=25";
+
+// Longer replicates (~0.3 s) for the tests that interrupt a running ensemble.
+const std::string kSlow =
+    " --set init.spheres=60 --set init.linkers=60 --set geometry.box_length=25 --set run.t_max=80";
+
+struct Cmd {
+  int status;
+  std::string out;
+};
+
+Cmd shell(const std::string& cmd) {
+  Cmd r{0, ""};
+  FILE* f = popen((cmd + " 2>&1").c_str(), "r");
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), buf.size(), f)) r.out += buf.data();
+  const int st = pclose(f);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+std::string binary() { return RINGSIM_BINARY; }
+std::string mpirun(int np) { return "mpirun --oversubscribe -np " + std::to_string(np) + " " + binary(); }
+
+class Ensemble : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    // mpirun as root (CI) needs these; harmless otherwise. Readers may look
+    // at files a running ensemble holds open.
+    setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+    setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+    setenv("HDF5_USE_FILE_LOCKING", "FALSE", 1);
+    dir_ = fs::temp_directory_path() / ("ringsim_ensemble_" + std::to_string(getpid()));
+    fs::create_directories(dir_);
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static std::string path(const std::string& name) { return (dir_ / name).string(); }
+  static fs::path dir_;
+};
+fs::path Ensemble::dir_;
+
+int count_status(const ResultsContent& c, RecordStatus s) {
+  int n = 0;
+  for (const ReplicateRecord& r : c.records) n += r.status == static_cast<std::int8_t>(s);
+  return n;
+}
+
+ReplicateRecord done_row(std::uint64_t id, int n_t) {
+  ReplicateRecord r{};
+  r.id = id;
+  r.seed = 9;
+  r.status = static_cast<std::int8_t>(RecordStatus::Ok);
+  std::snprintf(r.termination, sizeof r.termination, "t_max");
+  r.N_t = n_t;
+  r.S4 = std::nan("");
+  r.wall_seconds = 0.5;
+  return r;
+}
+
+Provenance test_provenance(std::uint64_t R, std::int64_t L) {
+  Provenance p;
+  p.version = "test";
+  p.scenario = "unit";
+  p.config_toml = "[run]\nt_max = 1.0\n";
+  p.config_hash = fnv1a_hex(p.config_toml);
+  p.base_seed = 9;
+  p.replicates = R;
+  p.series_length = L;
+  return p;
+}
+
+}  // namespace
+
+TEST(ResultsFile, FnvMatchesPublishedVectors) {
+  // FNV-1a 64 test vectors (Fowler/Noll/Vo reference: "" and "a").
+  EXPECT_EQ(fnv1a_hex(""), "cbf29ce484222325");
+  EXPECT_EQ(fnv1a_hex("a"), "af63dc4c8601ec8c");
+}
+
+TEST_F(Ensemble, FileRoundTripKeepsRowsSeriesAndPending) {
+  const std::string f = path("roundtrip.h5");
+  auto w = ResultsWriter::create(f, test_provenance(4, 3));
+  w->write_rows({done_row(2, 17), done_row(0, 5)}, {1, 2, 3, 4, 5, 6});
+  w->close();
+  const ResultsContent c = read_results(f);
+  ASSERT_EQ(c.records.size(), 4u);
+  EXPECT_EQ(c.provenance.config_hash, fnv1a_hex("[run]\nt_max = 1.0\n"));
+  EXPECT_EQ(c.records[2].N_t, 17);
+  EXPECT_EQ(c.records[0].N_t, 5);
+  EXPECT_EQ(c.records[1].status, static_cast<std::int8_t>(RecordStatus::Pending));
+  EXPECT_EQ(c.records[3].id, 3u);
+  EXPECT_STREQ(c.records[1].termination, "pending");
+  ASSERT_EQ(c.series.size(), 12u);
+  EXPECT_EQ(c.series[6], 1.0f);  // row 2 got the first series row
+  EXPECT_EQ(c.series[0], 4.0f);
+  EXPECT_TRUE(std::isnan(c.series[3]));  // row 1 still NaN
+}
+
+TEST_F(Ensemble, FileSurvivesKillWithoutClose) {
+  const std::string f = path("killed.h5");
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    auto w = ResultsWriter::create(f, test_provenance(5, 0));
+    w->write_rows({done_row(1, 11)}, {});
+    w->write_rows({done_row(3, 13)}, {});
+    raise(SIGKILL);  // no close, no destructor
+  }
+  int st = 0;
+  waitpid(child, &st, 0);
+  ASSERT_TRUE(WIFSIGNALED(st));
+  const ResultsContent c = read_results(f);
+  EXPECT_EQ(c.records[1].N_t, 11);
+  EXPECT_EQ(c.records[3].N_t, 13);
+  EXPECT_EQ(count_status(c, RecordStatus::Pending), 3);
+}
+
+TEST_F(Ensemble, NotAResultFileIsAClearError) {
+  const std::string f = path("plain.txt");
+  shell("echo hello > " + f);
+  try {
+    read_results(f);
+    FAIL() << "expected an error";
+  } catch (const ResultsFileError& e) {
+    EXPECT_NE(std::string(e.what()).find("not an HDF5 file"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(Ensemble, RowsIdenticalForOneTwoThreeRanksAndWithoutMpirun) {
+  const std::string args = " run --replicates 7 --seed 5 --series" + kFast + " -o ";
+  const Cmd solo = shell(binary() + args + path("np0.h5"));
+  ASSERT_EQ(solo.status, 0) << solo.out;
+  EXPECT_NE(solo.out.find("N_t"), std::string::npos) << solo.out;  // the closing table
+  const ResultsContent ref = read_results(path("np0.h5"));
+  EXPECT_EQ(ref.provenance.complete, 1);
+  EXPECT_EQ(count_status(ref, RecordStatus::Ok), 7);
+  for (int np : {1, 2, 3}) {
+    const std::string f = path("np" + std::to_string(np) + ".h5");
+    const Cmd c = shell(mpirun(np) + args + f);
+    ASSERT_EQ(c.status, 0) << c.out;
+    const ResultsContent got = read_results(f);
+    EXPECT_EQ(got.provenance.ranks, np);
+    SCOPED_TRACE("np = " + std::to_string(np));
+    ASSERT_EQ(got.records.size(), ref.records.size());
+    for (std::size_t i = 0; i < ref.records.size(); ++i) {
+      ReplicateRecord x = ref.records[i], y = got.records[i];
+      x.wall_seconds = y.wall_seconds = 0.0;
+      EXPECT_EQ(0, std::memcmp(&x, &y, sizeof x)) << "row " << i;
+    }
+    ASSERT_EQ(got.series.size(), ref.series.size());
+    EXPECT_EQ(0, std::memcmp(got.series.data(), ref.series.data(), ref.series.size() * sizeof(float)));
+  }
+  // Replicates differ from each other (distinct random streams).
+  EXPECT_NE(ref.records[0].events, ref.records[1].events);
+  // Each row is `ringsim replicate --seed S --replicate r`.
+  const Cmd one = shell(binary() + " replicate --seed 5 --replicate 4 --json" + kFast);
+  ASSERT_EQ(one.status, 0);
+  EXPECT_NE(one.out.find("\"events\":" + std::to_string(ref.records[4].events)), std::string::npos) << one.out;
+}
+
+TEST_F(Ensemble, KillNineThenResumeEqualsUninterruptedRun) {
+  const std::string args = " run --replicates 16 --seed 8" + kSlow + " -o ";
+  const std::string ref_file = path("ref16.h5"), f = path("killed16.h5");
+  ASSERT_EQ(shell(mpirun(2) + args + ref_file).status, 0);
+  // Start, wait until some replicates are on disk, kill every process hard.
+  shell("(" + mpirun(2) + args + f + " > /dev/null 2>&1 &)");
+  int done = 0;
+  for (int k = 0; k < 400 && done < 3; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    try {
+      done = 16 - count_status(read_results(f, false), RecordStatus::Pending);
+    } catch (const ResultsFileError&) {  // not created yet
+    }
+  }
+  shell("pkill -9 -f 'ringsim run.*killed16.h5'");
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const ResultsContent killed = read_results(f);  // readable after kill -9
+  const int pending = count_status(killed, RecordStatus::Pending);
+  ASSERT_GT(pending, 0) << "the run finished before the kill: make it longer";
+  ASSERT_LT(pending, 16);
+  EXPECT_EQ(killed.provenance.complete, 0);
+  // Resume: only the missing ones run (the log says how many).
+  const Cmd c = shell(mpirun(2) + args + f + " --resume");
+  ASSERT_EQ(c.status, 0) << c.out;
+  EXPECT_NE(c.out.find(std::to_string(pending) + " to run"), std::string::npos) << c.out;
+  const ResultsContent a = read_results(ref_file), b = read_results(f);
+  EXPECT_EQ(b.provenance.complete, 1);
+  EXPECT_EQ(b.provenance.runs, 2);
+  for (std::size_t i = 0; i < a.records.size(); ++i) {
+    ReplicateRecord x = a.records[i], y = b.records[i];
+    x.wall_seconds = y.wall_seconds = 0.0;
+    EXPECT_EQ(0, std::memcmp(&x, &y, sizeof x)) << "row " << i;
+  }
+  // Resuming a complete file does nothing and succeeds (requeue-safe).
+  const Cmd again = shell(mpirun(2) + args + f + " --resume");
+  EXPECT_EQ(again.status, 0) << again.out;
+  EXPECT_NE(again.out.find("0 to run"), std::string::npos) << again.out;
+}
+
+TEST_F(Ensemble, SignalStopsCleanlyWithExitCode75AndResumeFinishes) {
+  const std::string args = " run --replicates 24 --seed 8" + kSlow + " -o ";
+  const std::string f = path("signalled.h5");
+  shell("(" + mpirun(2) + args + f + " > " + path("signalled.log") + " 2>&1; echo $? > " + path("signalled.rc") +
+        ") > /dev/null 2>&1 &");
+  int done = 0;
+  for (int k = 0; k < 400 && done < 2; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    try {
+      done = 24 - count_status(read_results(f, false), RecordStatus::Pending);
+    } catch (const ResultsFileError&) {
+    }
+  }
+  // What Slurm's --signal does: SIGUSR1 to the launcher, which forwards it.
+  shell("pkill -USR1 -f '^mpirun.*signalled.h5'");
+  for (int k = 0; k < 200 && !fs::exists(path("signalled.rc")); ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_TRUE(fs::exists(path("signalled.rc")));
+  const Cmd rc = shell("cat " + path("signalled.rc"));
+  const Cmd log = shell("cat " + path("signalled.log"));
+  EXPECT_EQ(std::stoi(rc.out), 75) << log.out;
+  EXPECT_NE(log.out.find("--resume"), std::string::npos) << log.out;
+  const ResultsContent c = read_results(f);
+  const int pending = count_status(c, RecordStatus::Pending);
+  EXPECT_GT(pending, 0);
+  EXPECT_EQ(c.provenance.complete, 0);
+  const Cmd r = shell(mpirun(2) + args + f + " --resume");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_EQ(count_status(read_results(f), RecordStatus::Ok), 24);
+}
+
+TEST_F(Ensemble, RefusesOverwriteMismatchedResumeAndUnwritablePaths) {
+  const std::string f = path("refuse.h5");
+  const std::string args = " run --replicates 2 --seed 1" + kFast;
+  ASSERT_EQ(shell(binary() + args + " -o " + f).status, 0);
+  const auto before = fs::last_write_time(f);
+  Cmd c = shell(binary() + args + " -o " + f);
+  EXPECT_EQ(c.status, 3);
+  EXPECT_NE(c.out.find("already exists (2 of 2 replicates done)"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("--force"), std::string::npos) << c.out;
+  EXPECT_EQ(fs::last_write_time(f), before);
+  c = shell(binary() + args + " --set bonding.dtheta_deg=7 -o " + f + " --resume");
+  EXPECT_EQ(c.status, 3);
+  EXPECT_NE(c.out.find("configuration differs"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("dtheta_deg = 7"), std::string::npos) << c.out;
+  c = shell(binary() + " run --replicates 3 --seed 1" + kFast + " -o " + f + " --resume");
+  EXPECT_EQ(c.status, 3);
+  EXPECT_NE(c.out.find("--replicates 2"), std::string::npos) << c.out;
+  c = shell(binary() + args + " -o " + path("no/such/dir/x.h5"));
+  EXPECT_EQ(c.status, 3);
+  EXPECT_NE(c.out.find("no/such/dir"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("No such file or directory"), std::string::npos) << c.out;
+  EXPECT_FALSE(fs::exists(path("no")));
+  c = shell(binary() + args + " --set run.t_max=-1 -o " + path("bad.h5"));
+  EXPECT_EQ(c.status, 1);
+  EXPECT_NE(c.out.find("run.t_max"), std::string::npos) << c.out;
+  EXPECT_FALSE(fs::exists(path("bad.h5")));
+  c = shell(binary() + args + " --force -o " + f);
+  EXPECT_EQ(c.status, 0) << c.out;
+}
+
+TEST_F(Ensemble, FullDiskIsAClearErrorAndLeavesNoFile) {
+  const std::string mnt = path("tiny");
+  fs::create_directories(mnt);
+  if (shell("mount -t tmpfs -o size=48k tmpfs " + mnt).status != 0)
+    GTEST_SKIP() << "cannot mount a small tmpfs here (needs root and mount rights)";
+  const Cmd c = shell(binary() + " run --replicates 400 --seed 1 --set run.t_max=1 -o " + mnt + "/full.h5");
+  const Cmd listing = shell("ls -A " + mnt);
+  shell("umount " + mnt);
+  EXPECT_EQ(c.status, 3) << c.out;
+  EXPECT_NE(c.out.find("No space left on device"), std::string::npos) << c.out;
+  EXPECT_EQ(listing.out, "") << "left behind: " << listing.out;
+}
+
+TEST_F(Ensemble, FailedReplicatesAreRecordedAndTheEnsembleGoesOn) {
+  const std::string f = path("budget.h5");
+  const Cmd c = shell(mpirun(2) + " run --replicates 3 --seed 2" + kFast + " --set run.max_events=300 -o " + f);
+  ASSERT_EQ(c.status, 0) << c.out;
+  const ResultsContent r = read_results(f);
+  EXPECT_EQ(count_status(r, RecordStatus::Failed), 3);
+  EXPECT_STREQ(r.records[0].termination, "event_budget");
+  EXPECT_NE(std::string(r.records[0].error).find("run.max_events"), std::string::npos);
+  const std::vector<AggregateGroup> g = aggregate_files({f});
+  ASSERT_EQ(g.size(), 1u);
+  EXPECT_EQ(summarize_ensemble(g[0].records).n_failed, 3);
+}
+
+TEST_F(Ensemble, AggregateMergesShardsDropsDuplicatesAndSeparatesConfigurations) {
+  const std::string a = path("shard_a.h5"), b = path("shard_b.h5"), other = path("other.h5");
+  ASSERT_EQ(shell(binary() + " run --replicates 3 --seed 1" + kFast + " -o " + a).status, 0);
+  ASSERT_EQ(shell(binary() + " run --replicates 2 --seed 2" + kFast + " -o " + b).status, 0);
+  ASSERT_EQ(shell(binary() + " run --replicates 2 --seed 1" + kFast + " --set bonding.dtheta_deg=10 -o " + other)
+                .status,
+            0);
+  const std::vector<AggregateGroup> g = aggregate_files({a, b, a, other});
+  ASSERT_EQ(g.size(), 2u);
+  EXPECT_EQ(g[0].records.size(), 5u);  // 3 + 2 distinct (seed, id)
+  EXPECT_EQ(g[0].duplicates, 3);       // the second copy of a
+  EXPECT_EQ(g[0].conflicts, 0);
+  EXPECT_NE(g[1].sweep.find("run.t_max=25, bonding.dtheta_deg=10"), std::string::npos) << g[1].sweep;
+  const Cmd csv = shell(binary() + " aggregate " + a + " " + b + " " + other + " --format csv");
+  ASSERT_EQ(csv.status, 0) << csv.out;
+  EXPECT_NE(csv.out.find("dtheta_deg=10"), std::string::npos) << csv.out;
+  const Cmd bad = shell(binary() + " aggregate " + a + " --format xml");
+  EXPECT_NE(bad.status, 0);
+}
