@@ -124,14 +124,17 @@ std::string first_difference(const std::string& a, const std::string& b) {
 // Progress on rank 0: a live bar on a terminal, plain lines otherwise.
 class Progress {
  public:
-  Progress(std::ostream& err, std::uint64_t to_run, std::uint64_t done_before, std::uint64_t total, double interval)
+  Progress(std::ostream& err, std::uint64_t to_run, std::uint64_t done_before, std::uint64_t total, double interval,
+           const std::string& mode)
       : err_(err), to_run_(to_run), before_(done_before), total_(total), interval_(interval),
-        tty_(isatty(STDERR_FILENO) == 1), start_(Clock::now()), last_(start_) {}
+        tty_(mode == "bar" || (mode == "auto" && isatty(STDERR_FILENO) == 1)), quiet_(mode == "none"),
+        start_(Clock::now()), last_(start_) {}
   void count(bool failed) {
     ++done_;
     failed_ += failed;
   }
   void tick(bool final = false) {
+    if (quiet_) return;
     const auto now = Clock::now();
     const double since = std::chrono::duration<double>(now - last_).count();
     if (!final && since < (tty_ ? 0.5 : interval_)) return;
@@ -165,7 +168,7 @@ class Progress {
   std::ostream& err_;
   std::uint64_t to_run_, before_, total_, done_ = 0, failed_ = 0;
   double interval_;
-  bool tty_;
+  bool tty_, quiet_;
   Clock::time_point start_, last_;
 };
 
@@ -281,6 +284,11 @@ void add_run_command(CLI::App& app, RunOptions& opt) {
   cmd->add_option("--progress-interval", opt.progress_interval,
                   "Seconds between progress lines when stderr is not a terminal (a live bar otherwise)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--progress", opt.progress,
+                  "Progress on rank 0's stderr: bar (live, one line), log (a line every --progress-interval s), "
+                  "none; auto (default): bar on a terminal, else log. Under mpirun stderr is a pipe: use "
+                  "--progress bar for a live bar in an interactive shell")
+      ->check(CLI::IsMember({"auto", "bar", "log", "none"}));
   cmd->add_option("--format", opt.format, "Closing Table 5 on stdout: table, markdown, csv or json")
       ->check(CLI::IsMember({"table", "markdown", "csv", "json"}));
 }
@@ -385,7 +393,7 @@ int run_main(const RunOptions& opt, std::ostream& out, std::ostream& err) {
   CoordinatorHooks hooks;
   if (root) {
     progress = std::make_unique<Progress>(err, prep.ids.size(), prep.done_before, opt.replicates,
-                                          opt.progress_interval);
+                                          opt.progress_interval, opt.progress);
     err << "ringsim run: scenario " << prep.provenance.scenario << " (config " << prep.provenance.config_hash
         << "), " << opt.replicates << " replicates, " << prep.ids.size() << " to run, " << mpi.size()
         << (mpi.size() == 1 ? " rank" : " ranks") << ", output " << opt.output << '\n';

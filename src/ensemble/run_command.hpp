@@ -27,7 +27,8 @@ struct RunOptions {
   bool resume = false;
   bool force = false;
   bool series = false;           // store N_t(t) per replicate in /series/N_t
-  double progress_interval = 30;  // seconds between log lines when stderr is not a terminal
+  double progress_interval = 30;  // seconds between log lines
+  std::string progress = "auto";   // bar (live, \r), log (lines), none; auto: bar when stderr is a terminal
   std::string format = "table";  // the closing Table 5: table, markdown, csv, json
 };
 
