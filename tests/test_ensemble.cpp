@@ -301,6 +301,15 @@ TEST_F(Ensemble, FullDiskIsAClearErrorAndLeavesNoFile) {
   EXPECT_EQ(listing.out, "") << "left behind: " << listing.out;
 }
 
+TEST_F(Ensemble, SetBeforeTheScenarioFileTakesOneValue) {
+  // `--set K=V SCENARIO.toml`: the file stays the positional scenario.
+  const std::string scenario = std::string(RINGSIM_SOURCE_DIR) + "/jobs/scenarios/1-baseline.toml";
+  const Cmd c = shell(binary() + " run --replicates 1 --seed 1 --set run.t_max=2 " + scenario + " -o " +
+                      path("set_first.h5") + " --progress none");
+  ASSERT_EQ(c.status, 0) << c.out;
+  EXPECT_EQ(read_results(path("set_first.h5"), false).provenance.scenario, "1-baseline");
+}
+
 TEST_F(Ensemble, FailedReplicatesAreRecordedAndTheEnsembleGoesOn) {
   const std::string f = path("budget.h5");
   const Cmd c = shell(mpirun(2) + " run --replicates 3 --seed 2" + kFast + " --set run.max_events=300 -o " + f);

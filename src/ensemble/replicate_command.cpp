@@ -209,7 +209,10 @@ void add_replicate_command(CLI::App& app, ReplicateOptions& opt) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--seed,-s", opt.seed, "Base seed of the random streams")->required();
   cmd->add_option("--replicate", opt.replicate, "Replicate index (with --seed, keys every random stream)");
-  cmd->add_option("--set", opt.overrides, "Override one key: SECTION.KEY=VALUE (repeatable)")->take_all();
+  cmd->add_option("--set", opt.overrides, "Override one key: SECTION.KEY=VALUE (repeatable)")
+      ->expected(1)
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd->add_flag("--json", opt.json, "Print one JSON object instead of a table");
   cmd->add_flag("--validate", opt.validate, "Validation mode: check overlaps and conservation laws after every event");
   cmd->add_option("--snapshot", opt.snapshot,

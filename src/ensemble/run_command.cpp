@@ -275,7 +275,9 @@ void add_run_command(CLI::App& app, RunOptions& opt) {
   cmd->add_option("--seed,-s", opt.seed, "Base seed S")->required();
   cmd->add_option("--output,-o", opt.output, "HDF5 result file")->required();
   cmd->add_option("--set", opt.overrides, "Override one key: SECTION.KEY=VALUE (repeatable; a sweep point)")
-      ->take_all();
+      ->expected(1)  // one value per --set, so a scenario file after it stays positional
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd->add_flag("--resume", opt.resume,
                 "Finish an existing file: run only its missing replicates (same scenario, --set, -R, --seed); "
                 "starts a new file when none exists");
