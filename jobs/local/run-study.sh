@@ -1,0 +1,158 @@
+#!/usr/bin/env bash
+# The whole study without a scheduler: every scenario in turn under mpirun,
+# then Table 5 (OUTDIR/table5.md, OUTDIR/table5.csv). Run with --help.
+set -uo pipefail
+
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+repo=$(cd "$here/../.." && pwd)
+
+usage() {
+  cat <<EOF
+run-study.sh: run the ringsim study on this machine, one scenario after the
+other over all ranks, then aggregate.
+
+  jobs/local/run-study.sh [OPTIONS] [SCENARIO.toml...]
+
+Without scenarios, every file in jobs/scenarios/ in name order. Each runs as
+\`mpirun -np P ringsim run SCENARIO --replicates R --seed S
+-o OUTDIR/<scenario>.h5 --resume\`; then jobs/aggregate-study.sh writes
+OUTDIR/table5.md and OUTDIR/table5.csv and prints the table.
+
+Options:
+  -R, --replicates R    replicates per scenario (default 1000, the study's)
+  -s, --seed S          base seed, the same for every scenario (default 1)
+  -n, --ranks P         MPI ranks (default: the number of cores, $(nproc) here)
+  -o, --outdir DIR      results directory (default results)
+      --set KEY=VALUE   configuration override for every scenario (repeatable)
+      --ringsim PATH    the executable (default: $repo/build/ringsim
+                        when it exists, else \`ringsim\` on PATH)
+      --mpirun OPTION   extra mpirun option (repeatable), e.g. --mpirun=--oversubscribe
+                        for more ranks than cores, --mpirun=--allow-run-as-root
+      --dry-run         print the commands only
+  -h, --help            this text
+
+Ctrl-C (or SIGTERM) stops cleanly: the ranks save every finished replicate,
+the table is made from what is there, and the script exits with 75. Running
+the same command again resumes where it stopped; finished scenarios return
+at once. A scenario that fails (configuration or scene error) does not stop
+the others; the exit status is then 1.
+
+Examples:
+  jobs/local/run-study.sh -R 20 --set run.t_max=500 -o quick
+  jobs/local/run-study.sh -n 2 jobs/scenarios/1-baseline.toml jobs/scenarios/4-passive-selection.toml
+EOF
+}
+
+die() { echo "run-study.sh: $*" >&2; exit 1; }
+
+replicates=1000
+seed=1
+ranks=$(nproc)
+outdir=results
+ringsim=
+dry_run=0
+sets=()
+mpirun_args=()
+scenarios=()
+
+need_value() { [ $# -ge 2 ] || die "$1 needs a value (see --help)"; }
+while [ $# -gt 0 ]; do
+  case "$1" in
+    -h|--help) usage; exit 0 ;;
+    -R|--replicates) need_value "$@"; replicates=$2; shift 2 ;;
+    -s|--seed) need_value "$@"; seed=$2; shift 2 ;;
+    -n|--ranks) need_value "$@"; ranks=$2; shift 2 ;;
+    -o|--outdir) need_value "$@"; outdir=$2; shift 2 ;;
+    --set) need_value "$@"; sets+=("$2"); shift 2 ;;
+    --set=*) sets+=("${1#--set=}"); shift ;;
+    --ringsim) need_value "$@"; ringsim=$2; shift 2 ;;
+    --mpirun) need_value "$@"; mpirun_args+=("$2"); shift 2 ;;
+    --mpirun=*) mpirun_args+=("${1#--mpirun=}"); shift ;;
+    --dry-run) dry_run=1; shift ;;
+    --) shift; scenarios+=("$@"); break ;;
+    -*) die "unknown option $1 (see --help)" ;;
+    *) scenarios+=("$1"); shift ;;
+  esac
+done
+
+[[ $replicates =~ ^[1-9][0-9]*$ ]] || die "--replicates must be a positive integer, not '$replicates'"
+[[ $seed =~ ^[0-9]+$ ]] || die "--seed must be a non-negative integer, not '$seed'"
+[[ $ranks =~ ^[1-9][0-9]*$ ]] || die "--ranks must be a positive integer, not '$ranks'"
+
+if [ ${#scenarios[@]} -eq 0 ]; then
+  shopt -s nullglob
+  scenarios=("$repo"/jobs/scenarios/*.toml)
+  shopt -u nullglob
+  [ ${#scenarios[@]} -gt 0 ] || die "no scenario files in $repo/jobs/scenarios"
+fi
+names=()
+for f in "${scenarios[@]}"; do
+  [ -f "$f" ] || die "no scenario file $f"
+  name=$(basename "$f" .toml)
+  for n in "${names[@]}"; do
+    [ "$n" != "$name" ] || die "two scenarios are named $name; their results would share $outdir/$name.h5"
+  done
+  names+=("$name")
+done
+
+if [ -z "$ringsim" ]; then
+  if [ -x "$repo/build/ringsim" ]; then ringsim=$repo/build/ringsim
+  elif command -v ringsim > /dev/null; then ringsim=ringsim
+  elif [ "$dry_run" = 1 ]; then ringsim=ringsim
+  else die "no ringsim executable: build it (cmake --build build) or pass --ringsim PATH"
+  fi
+fi
+
+# Ctrl-C or SIGTERM: pass a SIGUSR1 to mpirun, which forwards it to the
+# ranks; ringsim treats it like SIGTERM, and mpirun then exits with the ranks'
+# 75 (after a SIGTERM of its own it exits with 1). mpirun runs in the
+# background so that the trap runs at once.
+stop=
+launcher_pid=
+on_signal() {
+  stop=$1
+  echo "run-study.sh: SIG$1: stopping; finished replicates are kept" >&2
+  [ -n "$launcher_pid" ] && kill -USR1 "$launcher_pid" 2> /dev/null
+}
+trap 'on_signal INT' INT
+trap 'on_signal TERM' TERM
+
+[ "$dry_run" = 1 ] || mkdir -p "$outdir" || die "cannot create $outdir"
+failed=()
+for i in "${!scenarios[@]}"; do
+  [ -z "$stop" ] || break
+  cmd=(mpirun -np "$ranks" "${mpirun_args[@]}" "$ringsim" run "${scenarios[$i]}"
+       --replicates "$replicates" --seed "$seed" -o "$outdir/${names[$i]}.h5" --resume)
+  for s in "${sets[@]}"; do cmd+=(--set "$s"); done
+  if [ "$dry_run" = 1 ]; then printf '%q ' "${cmd[@]}"; echo; continue; fi
+  echo "run-study.sh: [$((i + 1))/${#scenarios[@]}] ${names[$i]}" >&2
+  "${cmd[@]}" &
+  launcher_pid=$!
+  while kill -0 "$launcher_pid" 2> /dev/null; do wait "$launcher_pid"; done
+  wait "$launcher_pid"
+  rc=$?
+  launcher_pid=
+  # a Ctrl-C reaches mpirun from the terminal too, and it may then report 1
+  if [ -n "$stop" ] && [ "$rc" -ne 0 ]; then rc=75; fi
+  case "$rc" in
+    0) ;;
+    75) stop=${stop:-ranks}; echo "run-study.sh: ${names[$i]} stopped early (exit 75)" >&2 ;;
+    *) failed+=("${names[$i]}"); echo "run-study.sh: ${names[$i]} failed (exit $rc); going on" >&2 ;;
+  esac
+done
+
+aggregate=(bash "$repo/jobs/aggregate-study.sh" --ringsim "$ringsim" "$outdir" "${names[@]}")
+if [ "$dry_run" = 1 ]; then printf '%q ' "${aggregate[@]}"; echo; exit 0; fi
+trap - INT TERM
+"${aggregate[@]}"
+agg_rc=$?
+
+if [ -n "$stop" ]; then
+  echo "run-study.sh: stopped; run the same command again to resume" >&2
+  exit 75
+fi
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "run-study.sh: failed: ${failed[*]}" >&2
+  exit 1
+fi
+exit $agg_rc
