@@ -54,6 +54,11 @@ void expect_same(const SimParams& a, const SimParams& b) {
   EXPECT_EQ(a.bonding.coplanarity_filter, b.bonding.coplanarity_filter);
   EXPECT_EQ(a.bonding.dphi_deg, b.bonding.dphi_deg);
   EXPECT_EQ(a.bonding.coplanarity_mode, b.bonding.coplanarity_mode);
+  EXPECT_EQ(a.compliant.k, b.compliant.k);
+  EXPECT_EQ(a.compliant.c, b.compliant.c);
+  EXPECT_EQ(a.compliant.k_omega, b.compliant.k_omega);
+  EXPECT_EQ(a.compliant.c_omega, b.compliant.c_omega);
+  EXPECT_EQ(a.compliant.target_gap, b.compliant.target_gap);
   EXPECT_EQ(a.run.t_max, b.run.t_max);
   EXPECT_EQ(a.run.steady_state, b.run.steady_state);
   EXPECT_EQ(a.run.sample_interval, b.run.sample_interval);
@@ -391,6 +396,28 @@ TEST(Config, EnumDidYouMean) {
   EXPECT_EQ(e.find("did you mean"), std::string::npos) << e;
 }
 
+// Compliant keys load and range-check; any spring > 0 is refused until the
+// compliant force field is coupled to the event loop (core/compliant*.hpp).
+TEST(Config, CompliantKeys) {
+  const SimParams d;
+  EXPECT_EQ(d.compliant.k, 0.0);
+  EXPECT_EQ(d.compliant.k_omega, 0.0);
+  EXPECT_FALSE(d.compliant.enabled());
+  const SimParams p = load_config("[compliant]\nc = 100\nc_omega = 50\ntarget_gap = 0.05", {}, "c.toml");
+  EXPECT_EQ(p.compliant.c, 100.0);
+  EXPECT_EQ(p.compliant.c_omega, 50.0);
+  EXPECT_EQ(p.compliant.target_gap, 0.05);
+  EXPECT_CONTAINS(error_of("", {"compliant.c=-1"}), "--set: compliant.c = -1: must be >= 0");
+  EXPECT_CONTAINS(error_of("", {"compliant.target_gap=-0.1"}), "compliant.target_gap = -0.1: must be >= 0");
+  EXPECT_CONTAINS(error_of("[compliant]\nk = 1000\nc = 100"),
+                  "test.toml:2:5: compliant.k = 1000: compliant bonds are not yet coupled to the event loop");
+  EXPECT_CONTAINS(error_of("", {"compliant.k_omega=1000"}),
+                  "--set: compliant.k_omega = 1000: compliant bonds are not yet coupled to the event loop");
+  SimParams q;
+  q.compliant.k = 1.0;
+  EXPECT_THROW(validate(q), ConfigError);
+}
+
 TEST(Config, CaptureDistanceBelowLinkerLength) {
   const std::string e = error_of("[bonding]\ncapture_distance = 4");
   EXPECT_CONTAINS(e, "test.toml:2:20: bonding.capture_distance = 4: must be < geometry.linker_length = 4");
@@ -515,7 +542,7 @@ TEST(Config, UnknownSectionDidYouMean) {
   EXPECT_CONTAINS(error_of("[geomtry]\nbox_length = 3"), "unknown section \"geomtry\"; did you mean \"geometry\"?");
   const std::string e = error_of("[output]\nfile = \"x\"");
   EXPECT_CONTAINS(e, "unknown section \"output\"");
-  EXPECT_CONTAINS(e, "valid sections: geometry, contact, init, bonding, run");
+  EXPECT_CONTAINS(e, "valid sections: geometry, contact, init, bonding, compliant, run");
   EXPECT_CONTAINS(error_of("", {"geomtry.box_length=3"}), "did you mean \"geometry.box_length\"?");
 }
 
@@ -605,6 +632,9 @@ TEST(Config, RoundTripIsExact) {
   p.bonding.coplanarity_filter = false;
   p.bonding.dphi_deg = 90.0;
   p.bonding.coplanarity_mode = CoplanarityMode::Cis;
+  p.compliant.c = 1.0 / 7.0;  // springs stay 0: compliant bonds cannot run yet
+  p.compliant.c_omega = 1e-300;
+  p.compliant.target_gap = 0.3;
   p.run.t_max = 5e3;
   p.run.steady_state = false;
   p.run.sample_interval = 0.1;
@@ -640,7 +670,7 @@ TEST(Config, ScenarioRoundTripWithEscapedStrings) {
 
 TEST(Config, KeyInfoTable) {
   const auto& keys = config_keys();
-  ASSERT_EQ(keys.size(), 46u);
+  ASSERT_EQ(keys.size(), 51u);
   for (const KeyInfo& k : keys) {
     EXPECT_FALSE(k.type.empty()) << k.name;
     EXPECT_FALSE(k.default_value.empty()) << k.name;

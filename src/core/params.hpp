@@ -71,6 +71,20 @@ struct BondingParams {
   CoplanarityMode coplanarity_mode = CoplanarityMode::CisOrTrans;
 };
 
+// Compliant bonds (MODEL.md, "Two bond regimes", compliant): spring-damper
+// terms toward the target pose, core/compliant.hpp. All zero (the default) is
+// the rigid regime; any of k, k_omega > 0 selects the compliant one.
+// Units: k in force/length (mass/time^2), c in mass/time, k_omega in
+// energy/rad^2, c_omega in energy*time/rad^2, target_gap in length.
+struct CompliantParams {
+  double k = 0.0;           // bond spring on the sphere-to-target-point vector
+  double c = 0.0;           // bond damper on the relative velocity at the sphere centre
+  double k_omega = 0.0;     // angle and dihedral springs (on the deviation in radians)
+  double c_omega = 0.0;     // angle and dihedral dampers (on the rate in rad/time)
+  double target_gap = 0.0;  // target gap between the sphere surface and the end face
+  bool enabled() const { return k > 0.0 || k_omega > 0.0; }
+};
+
 // Run control. A replicate ends at t_max or, with steady_state, when MSER-b
 // (White 1997, batch size b = mser_batch) on the N_t series sampled every
 // sample_interval puts its truncation point in the first half of the series
@@ -98,6 +112,7 @@ struct SimParams {
   ContactParams contact;
   InitParams init;
   BondingParams bonding;
+  CompliantParams compliant;
   RunParams run;
 };
 

@@ -8,8 +8,8 @@
 //      (unknown: did-you-mean), convert the value to the key's type, check the
 //      key's own range, store it through the descriptor;
 //   3. check the rules that involve several keys (friction order, at least one
-//      body, box large enough, capture distance below the linker length, MSER
-//      minimum length).
+//      body, box large enough, capture distance below the linker length,
+//      compliant bonds not yet runnable, MSER minimum length).
 // Problems are collected and reported together, in source order, one per line.
 
 #include <toml++/toml.h>
@@ -257,6 +257,7 @@ using G = GeometryParams;
 using C = ContactParams;
 using I = InitParams;
 using B = BondingParams;
+using P = CompliantParams;
 using R = RunParams;
 
 // The one list of configuration keys; its order is the canonical order.
@@ -337,6 +338,18 @@ const std::vector<KeyDesc>& key_table() {
           "half-width Delta_phi (degrees) of the coplanarity window, boundary included"),
       key<&S::bonding, &B::coplanarity_mode>("bonding.coplanarity_mode", any(),
           "planar dihedrals: cis-or-trans (deviation min(|phi|, 180 - |phi|)) or cis (deviation |phi|)"),
+
+      key<&S::compliant, &P::k>("compliant.k", at_least(0),
+          "bond spring k (force/length) on the vector from a bonded sphere's centre to its target point on the "
+          "linker axis; 0 with k_omega = 0 = rigid bonds"),
+      key<&S::compliant, &P::c>("compliant.c", at_least(0),
+          "bond damper c (mass/time) on the relative velocity at the sphere centre"),
+      key<&S::compliant, &P::k_omega>("compliant.k_omega", at_least(0),
+          "angle and dihedral spring k_omega (energy/rad^2) on the deviation from theta0 and from cis/trans"),
+      key<&S::compliant, &P::c_omega>("compliant.c_omega", at_least(0),
+          "angle and dihedral damper c_omega (energy*time/rad^2) on the rate of the bond angle and dihedral"),
+      key<&S::compliant, &P::target_gap>("compliant.target_gap", at_least(0),
+          "target gap (length) between a bonded sphere's surface and the linker's end face"),
 
       key<&S::run, &R::t_max>("run.t_max", greater(0),
           "simulated time limit of a replicate (the study's 5e5 steps of 0.01)"),
@@ -679,6 +692,18 @@ void check_cross(const SimParams& p, const Origins& origins, Problems& problems)
     problems.add(2, 0, 0,
                  where + "bonding.capture_distance = " + format_real(p.bonding.capture_distance) +
                      ": must be < geometry.linker_length = " + format_real(p.geometry.linker_length));
+  }
+
+  // Compliant bonds (MODEL.md, "Two bond regimes") have their force field and
+  // integrators (core/compliant*.hpp) but are not yet coupled to the event
+  // loop: refuse them rather than silently running rigid bonds.
+  if (p.compliant.enabled()) {
+    const char* key = p.compliant.k > 0.0 ? "compliant.k" : "compliant.k_omega";
+    const double value = p.compliant.k > 0.0 ? p.compliant.k : p.compliant.k_omega;
+    problems.add(2, 0, 0,
+                 origin(origins, key) + key + " = " + format_real(value) +
+                     ": compliant bonds are not yet coupled to the event loop; only the rigid regime "
+                     "(compliant.k = compliant.k_omega = 0) can run");
   }
 
   // A steady-state test needs enough batch means to say "not steady"
