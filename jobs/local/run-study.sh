@@ -5,6 +5,9 @@ set -uo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/../.." && pwd)
+# die, need_value, is_count, the shared options, scenarios and executable
+# shellcheck source=jobs/lib/common.sh
+. "$repo/jobs/lib/common.sh" || { echo "run-study.sh: cannot read $repo/jobs/lib/common.sh" >&2; exit 1; }
 
 usage() {
   cat <<EOF
@@ -43,65 +46,23 @@ Examples:
 EOF
 }
 
-die() { echo "run-study.sh: $*" >&2; exit 1; }
-
-replicates=1000
-seed=1
+study_defaults  # -R 1000, -s 1, -o results, no --set, no scenarios
 ranks=$(nproc)
-outdir=results
-ringsim=
-dry_run=0
-sets=()
 mpirun_args=()
-scenarios=()
 
-need_value() { [ $# -ge 2 ] || die "$1 needs a value (see --help)"; }
 while [ $# -gt 0 ]; do
   case "$1" in
     -h|--help) usage; exit 0 ;;
-    -R|--replicates) need_value "$@"; replicates=$2; shift 2 ;;
-    -s|--seed) need_value "$@"; seed=$2; shift 2 ;;
-    -n|--ranks) need_value "$@"; ranks=$2; shift 2 ;;
-    -o|--outdir) need_value "$@"; outdir=$2; shift 2 ;;
-    --set) need_value "$@"; sets+=("$2"); shift 2 ;;
-    --set=*) sets+=("${1#--set=}"); shift ;;
-    --ringsim) need_value "$@"; ringsim=$2; shift 2 ;;
     --mpirun) need_value "$@"; mpirun_args+=("$2"); shift 2 ;;
     --mpirun=*) mpirun_args+=("${1#--mpirun=}"); shift ;;
-    --dry-run) dry_run=1; shift ;;
-    --) shift; scenarios+=("$@"); break ;;
-    -*) die "unknown option $1 (see --help)" ;;
-    *) scenarios+=("$1"); shift ;;
+    *) take_study_option "$@"; shift "$nargs" ;;  # -R -s -n -o --set --ringsim --dry-run, scenarios
   esac
 done
 
-[[ $replicates =~ ^[1-9][0-9]*$ ]] || die "--replicates must be a positive integer, not '$replicates'"
-[[ $seed =~ ^[0-9]+$ ]] || die "--seed must be a non-negative integer, not '$seed'"
-[[ $ranks =~ ^[1-9][0-9]*$ ]] || die "--ranks must be a positive integer, not '$ranks'"
-
-if [ ${#scenarios[@]} -eq 0 ]; then
-  shopt -s nullglob
-  scenarios=("$repo"/jobs/scenarios/*.toml)
-  shopt -u nullglob
-  [ ${#scenarios[@]} -gt 0 ] || die "no scenario files in $repo/jobs/scenarios"
-fi
-names=()
-for f in "${scenarios[@]}"; do
-  [ -f "$f" ] || die "no scenario file $f"
-  name=$(basename "$f" .toml)
-  for n in "${names[@]}"; do
-    [ "$n" != "$name" ] || die "two scenarios are named $name; their results would share $outdir/$name.h5"
-  done
-  names+=("$name")
-done
-
-if [ -z "$ringsim" ]; then
-  if [ -x "$repo/build/ringsim" ]; then ringsim=$repo/build/ringsim
-  elif command -v ringsim > /dev/null; then ringsim=ringsim
-  elif [ "$dry_run" = 1 ]; then ringsim=ringsim
-  else die "no ringsim executable: build it (cmake --build build) or pass --ringsim PATH"
-  fi
-fi
+check_study_values
+# Paths and the executable as given: everything runs here, from this directory.
+resolve_scenarios
+resolve_ringsim --as-given
 
 # Ctrl-C or SIGTERM: pass a SIGUSR1 to mpirun, which forwards it to the
 # ranks; ringsim treats it like SIGTERM, and mpirun then exits with the ranks'

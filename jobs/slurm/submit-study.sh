@@ -8,6 +8,9 @@ set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/../.." && pwd)
 template=$here/ringsim-scenario.sbatch
+# die, need_value, is_count, the shared options, scenarios and executable
+# shellcheck source=jobs/lib/common.sh
+. "$repo/jobs/lib/common.sh" || { echo "submit-study.sh: cannot read $repo/jobs/lib/common.sh" >&2; exit 1; }
 
 usage() {
   cat <<EOF
@@ -67,92 +70,42 @@ Examples:
 EOF
 }
 
-die() { echo "submit-study.sh: $*" >&2; exit 1; }
-
-replicates=1000
-seed=1
+study_defaults  # -R 1000, -s 1, -o results, no --set, no scenarios
 ranks=4
 time_limit=24:00:00
 partition=
 account=
-outdir=results
-ringsim=
 launcher=auto
 max_parallel=
 stop_before=120
-dry_run=0
 parsable=0
-sets=()
 extra=()
-scenarios=()
 
-need_value() { [ $# -ge 2 ] || die "$1 needs a value (see --help)"; }
 while [ $# -gt 0 ]; do
   case "$1" in
     -h|--help) usage; exit 0 ;;
-    -R|--replicates) need_value "$@"; replicates=$2; shift 2 ;;
-    -s|--seed) need_value "$@"; seed=$2; shift 2 ;;
-    -n|--ranks) need_value "$@"; ranks=$2; shift 2 ;;
     -t|--time) need_value "$@"; time_limit=$2; shift 2 ;;
     -p|--partition) need_value "$@"; partition=$2; shift 2 ;;
     -A|--account) need_value "$@"; account=$2; shift 2 ;;
-    -o|--outdir) need_value "$@"; outdir=$2; shift 2 ;;
-    --set) need_value "$@"; sets+=("$2"); shift 2 ;;
-    --set=*) sets+=("${1#--set=}"); shift ;;
-    --ringsim) need_value "$@"; ringsim=$2; shift 2 ;;
     --launcher) need_value "$@"; launcher=$2; shift 2 ;;
     --max-parallel) need_value "$@"; max_parallel=$2; shift 2 ;;
     --stop-before) need_value "$@"; stop_before=$2; shift 2 ;;
     --sbatch) need_value "$@"; extra+=("$2"); shift 2 ;;
     --sbatch=*) extra+=("${1#--sbatch=}"); shift ;;
-    --dry-run) dry_run=1; shift ;;
     --parsable) parsable=1; shift ;;
-    --) shift; scenarios+=("$@"); break ;;
-    -*) die "unknown option $1 (see --help)" ;;
-    *) scenarios+=("$1"); shift ;;
+    *) take_study_option "$@"; shift "$nargs" ;;  # -R -s -n -o --set --ringsim --dry-run, scenarios
   esac
 done
 
-is_count() { [[ $1 =~ ^[1-9][0-9]*$ ]]; }
-is_count "$replicates" || die "--replicates must be a positive integer, not '$replicates'"
-[[ $seed =~ ^[0-9]+$ ]] || die "--seed must be a non-negative integer, not '$seed'"
-is_count "$ranks" || die "--ranks must be a positive integer, not '$ranks'"
+check_study_values
 is_count "$stop_before" || die "--stop-before must be a positive number of seconds, not '$stop_before'"
 [ -z "$max_parallel" ] || is_count "$max_parallel" || die "--max-parallel must be a positive integer"
 case "$launcher" in auto|srun|mpirun) ;; *) die "--launcher must be auto, srun or mpirun" ;; esac
-for s in "${sets[@]}"; do [[ $s == *=* ]] || die "--set needs SECTION.KEY=VALUE, not '$s'"; done
+check_sets
 
-# --- scenarios: absolute paths, unique names ---------------------------------
-if [ ${#scenarios[@]} -eq 0 ]; then
-  shopt -s nullglob
-  scenarios=("$repo"/jobs/scenarios/*.toml)
-  shopt -u nullglob
-  [ ${#scenarios[@]} -gt 0 ] || die "no scenario files in $repo/jobs/scenarios"
-fi
-names=()
-for i in "${!scenarios[@]}"; do
-  f=${scenarios[$i]}
-  [ -f "$f" ] || die "no scenario file $f"
-  scenarios[i]=$(cd "$(dirname "$f")" && pwd)/$(basename "$f")
-  name=$(basename "$f" .toml)
-  for n in "${names[@]}"; do
-    [ "$n" != "$name" ] || die "two scenarios are named $name; their results would share $outdir/$name.h5"
-  done
-  names+=("$name")
-done
+resolve_scenarios --absolute  # absolute paths, unique names
 n_tasks=${#scenarios[@]}
-
-# --- the executable ---------------------------------------------------------
-if [ -z "$ringsim" ]; then
-  if [ -x "$repo/build/ringsim" ]; then ringsim=$repo/build/ringsim
-  elif command -v ringsim > /dev/null; then ringsim=$(command -v ringsim)
-  elif [ "$dry_run" = 1 ]; then ringsim=ringsim
-  else die "no ringsim executable: build it (cmake --build build) or pass --ringsim PATH"
-  fi
-elif [[ $ringsim == */* ]]; then
-  [ -x "$ringsim" ] || [ "$dry_run" = 1 ] || die "--ringsim $ringsim is not executable"
-  ringsim=$(cd "$(dirname "$ringsim")" && pwd)/$(basename "$ringsim")
-fi
+resolve_ringsim
 
 case "$outdir" in /*) ;; *) outdir=$PWD/$outdir ;; esac
 
