@@ -117,17 +117,21 @@ def plot_series(groups, out):
 
 
 def swept_keys(groups):
-    """--set keys whose values differ between configurations."""
-    values = OrderedDict()
-    for g in groups.values():
-        for o in g["overrides"]:
-            key, _, val = o.partition("=")
-            values.setdefault(key, set()).add(val)
-    return [k for k, v in values.items() if len(v) > 1]
+    """Swept --set keys, those whose values differ between configurations.
+    Keys that always change together (e.g. dtheta_deg and dphi_deg swept as
+    one) form one axis, named "key1+key2" and valued by the first key."""
+    per_group = [dict(o.partition("=")[::2] for o in g["overrides"]) for g in groups.values()]
+    keys = list(OrderedDict.fromkeys(k for d in per_group for k in d))
+    axes = OrderedDict()
+    for k in keys:
+        signature = tuple(d.get(k) for d in per_group)
+        if len(set(signature)) > 1:
+            axes.setdefault(signature, []).append(k)
+    return ["+".join(ks) for ks in axes.values()]
 
 
 def setting(g, key):
-    section, _, field = key.partition(".")
+    section, _, field = key.split("+")[0].partition(".")
     return g["config"][section][field]
 
 
@@ -147,6 +151,10 @@ def plot_sweep(groups, out):
             m, c = zip(*(mean_ci([r[field] for r in g["rows"].values()]) for g in gs))
             ax.errorbar(xs, np.array(m) * scale, yerr=np.nan_to_num(np.array(c) * scale), marker="o", capsize=3,
                         label=f"{curve_key} = {cval}" if curve_key else None)
+        if not any(np.isfinite(mean_ci([r[field] for r in g["rows"].values()])[0])
+                   for gs in curves.values() for g in gs):
+            ax.text(0.5, 0.5, "undefined in every replicate\n(S4: no rings)", transform=ax.transAxes,
+                    ha="center", va="center", color="gray")
         ax.set_xlabel(x_key)
         ax.set_ylabel(label)
         if len(xs) > 2 and min(xs) > 0 and max(xs) / min(xs) >= 10:
