@@ -4,6 +4,7 @@
 // query; the pose cycles through the set.
 #include <benchmark/benchmark.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <fstream>
 #include <string>
@@ -96,19 +97,61 @@ void BM_FclCylindersOverlap(benchmark::State& state) {
 }
 BENCHMARK(BM_FclCylindersOverlap);
 
-// Exact torque-free rotation of an asymmetric body (m = 0.93), one orientation
-// per iteration at advancing times.
-void BM_FreeRotationOrientation(benchmark::State& state) {
+// Exact torque-free rotation, one evaluation per iteration at advancing
+// times. Arg 0: an asymmetric body with m = 0.93; arg 1: a nearly symmetric
+// one (m = 0.09), closer to the rigid clusters of a replicate (mostly m < 0.05).
+ringsim::FreeRotation rotation_body(std::int64_t which) {
   const ringsim::Mat3 R0 = Eigen::AngleAxisd(0.3, Vec3(1, 2, 3).normalized()).toRotationMatrix();
-  const ringsim::FreeRotation fr(Vec3(2, 5, 9), R0, R0 * Vec3(1.4, -2.0, 2.7));
+  if (which == 0) return ringsim::FreeRotation(Vec3(2, 5, 9), R0, R0 * Vec3(1.4, -2.0, 2.7));
+  return ringsim::FreeRotation(Vec3(2, 2.2, 9), R0, R0 * Vec3(1.4, -2.0, 2.7));
+}
+
+template <class Eval>
+void run_rotation(benchmark::State& state, Eval eval) {
+  const ringsim::FreeRotation fr = rotation_body(state.range(0));
+  state.counters["m"] = fr.parameter_m();
   double t = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(fr.orientation(t));
+    benchmark::DoNotOptimize(eval(fr, t));
     t += 0.37;
   }
   state.SetItemsProcessed(state.iterations());
 }
-BENCHMARK(BM_FreeRotationOrientation);
+
+void BM_FreeRotationOrientation(benchmark::State& state) {
+  run_rotation(state, [](const ringsim::FreeRotation& fr, double t) { return fr.orientation(t); });
+}
+BENCHMARK(BM_FreeRotationOrientation)->Arg(0)->Arg(1);
+
+void BM_FreeRotationOmegaBody(benchmark::State& state) {
+  run_rotation(state, [](const ringsim::FreeRotation& fr, double t) { return fr.omega_body(t); });
+}
+BENCHMARK(BM_FreeRotationOmegaBody)->Arg(0)->Arg(1);
+
+// The reference path (AGM and Carlson R_J), which the series path replaces
+// away from the separatrix.
+void BM_FreeRotationOrientationReference(benchmark::State& state) {
+  run_rotation(state, [](const ringsim::FreeRotation& fr, double t) { return fr.orientation_reference(t); });
+}
+BENCHMARK(BM_FreeRotationOrientationReference)->Arg(0)->Arg(1);
+
+void BM_FreeRotationOmegaBodyReference(benchmark::State& state) {
+  run_rotation(state, [](const ringsim::FreeRotation& fr, double t) { return fr.omega_body_reference(t); });
+}
+BENCHMARK(BM_FreeRotationOmegaBodyReference)->Arg(0)->Arg(1);
+
+// Construction (long double constants, and the series coefficients).
+void BM_FreeRotationConstruct(benchmark::State& state) {
+  const ringsim::Mat3 R0 = Eigen::AngleAxisd(0.3, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  const Vec3 I = state.range(0) == 0 ? Vec3(2, 5, 9) : Vec3(2, 2.2, 9);
+  Vec3 L = R0 * Vec3(1.4, -2.0, 2.7);
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(ringsim::FreeRotation(I, R0, L));
+    L[0] += 1e-9;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_FreeRotationConstruct)->Arg(0)->Arg(1);
 
 }  // namespace
 

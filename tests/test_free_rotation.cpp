@@ -2,8 +2,9 @@
 // reference integration in ../shared/testdata/free_rotation.json, against a
 // Dormand-Prince integration of Euler's equations written here, against closed
 // forms (symmetric top, spherical top, principal-axis rotation), conservation
-// of L and E over 1e4 periods, the group property R(t2) = R_{t1}(t2 - t1), and
-// the special functions against Boost.Math.
+// of L and E over 1e4 periods, the group property R(t2) = R_{t1}(t2 - t1), the
+// theta-series path against the AGM/Carlson reference path, and the special
+// functions against Boost.Math.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -500,6 +501,106 @@ TEST(FreeRotation, NearlySymmetricTopIsContinuous) {
       for (double t : {5.0, 1e4, 1e8}) expect_conserves(b, t);
     }
   }
+}
+
+// ---- series path against the reference path --------------------------------------
+
+// A body with a prescribed parameter m: moments I1 < I2 < I3 (random, in a
+// random order in the body frame), L circling the largest (or smallest) axis,
+// L_y (scaled by sqrt m) and L_z random and L_x solved from m = a^2 d_xy / (c^2 d_yz) (see
+// free_rotation.cpp); resampled when that has no solution.
+FreeRotation body_with_m(Lcg& rng, double m_target) {
+  for (;;) {
+    std::array<double, 3> Is = {rng.uniform(0.5, 10), rng.uniform(0.5, 10), rng.uniform(0.5, 10)};
+    std::sort(Is.begin(), Is.end());
+    const bool largest = rng.uniform() < 0.5;
+    const double Ix = largest ? Is[0] : Is[2], Iy = Is[1], Iz = largest ? Is[2] : Is[0];
+    const double dxz = 1 / Ix - 1 / Iz, dyz = 1 / Iy - 1 / Iz, dxy = 1 / Ix - 1 / Iy;
+    const double rho = dyz / dxz, rho_c = dxy / dxz;
+    const double Ly = rng.uniform(-1, 1) * std::min(1.0, std::sqrt(m_target)), Lz = rng.uniform(0.2, 1) * (rng.uniform() < 0.5 ? -1 : 1);
+    const double Lx2 = m_target * (Lz * Lz + rho_c * Ly * Ly) * dyz / dxy - rho * Ly * Ly;
+    if (!(Lx2 > 0) || dxy <= 0 || dyz <= 0) continue;
+    const Vec3 L_xyz(std::sqrt(Lx2) * (rng.uniform() < 0.5 ? -1 : 1), Ly, Lz);
+    // Principal axes in a random order: body axis perm[i] carries X axis i.
+    std::array<int, 3> perm = {0, 1, 2};
+    for (int i = 2; i > 0; --i) std::swap(perm[i], perm[static_cast<int>(rng.uniform() * (i + 1)) % (i + 1)]);
+    Vec3 I, Lb;
+    const double Ixyz[3] = {Ix, Iy, Iz};
+    for (int i = 0; i < 3; ++i) {
+      I[perm[i]] = Ixyz[i];
+      Lb[perm[i]] = L_xyz[i];
+    }
+    const Mat3 R0 = rng.rotation();
+    return FreeRotation(I, R0, R0 * Lb * rng.uniform(0.2, 5));
+  }
+}
+
+// orientation() and omega_body() use theta series where q <= 0.25 and the
+// AGM/Carlson reference path elsewhere; both share the reduction of the phase,
+// so they must agree to rounding at any time. Bodies with m log-uniform down
+// to 1e-16, uniform in (0, 1), and up to 1 - 1e-12 (where the fallback takes
+// over), each at 40 times up to 1e4 body periods either way.
+TEST(FreeRotation, SeriesPathMatchesReferencePath) {
+  Lcg rng{2024};
+  double worst_R = 0, worst_w = 0, worst_m = 0;
+  int n_series = 0, n_reference = 0;
+  double m_series_max = 0;
+  for (int i = 0; i < 1200; ++i) {
+    double m;
+    switch (i % 4) {
+      case 0: m = std::pow(10.0, rng.uniform(-16, -1)); break;
+      case 3: m = 1 - std::pow(10.0, rng.uniform(-12, -1)); break;
+      default: m = rng.uniform(); break;
+    }
+    const FreeRotation fr = body_with_m(rng, m);
+    ASSERT_EQ(fr.mode(), FreeRotation::Mode::Elliptic) << "m " << m;
+    if (fr.uses_series()) {
+      ++n_series;
+      m_series_max = std::max(m_series_max, fr.parameter_m());
+    } else {
+      ++n_reference;
+    }
+    const double T = fr.body_period();
+    const double w_scale = fr.max_rate();
+    for (int k = 0; k < 40; ++k) {
+      const double t = (k < 10 ? rng.uniform(-2, 2) : rng.uniform(-1e4, 1e4)) * T;
+      const double eR = max_abs(fr.orientation(t) - fr.orientation_reference(t));
+      const double ew = max_abs(fr.omega_body(t) - fr.omega_body_reference(t)) / w_scale;
+      if (eR > worst_R) worst_m = fr.parameter_m();
+      worst_R = std::max(worst_R, eR);
+      worst_w = std::max(worst_w, ew);
+      ASSERT_LE(eR, 1e-13) << "m " << fr.parameter_m() << " t/T " << t / T;
+      ASSERT_LE(ew, 1e-13) << "m " << fr.parameter_m() << " t/T " << t / T;
+    }
+  }
+  EXPECT_GT(n_series, 800);
+  EXPECT_GT(n_reference, 100);
+  EXPECT_GT(m_series_max, 0.98);
+  std::printf("series vs reference path (%d series, %d fallback bodies, series up to m = %.4f): "
+              "max |dR| = %.2e (at m = %.3g), max |d omega| / max_rate = %.2e\n",
+              n_series, n_reference, m_series_max, worst_R, worst_m, worst_w);
+}
+
+// The series path at the special values m = 0 (symmetric top about either
+// end axis, characteristic n = 0 or n < 0) and tiny m, against the reference.
+TEST(FreeRotation, SeriesPathAtSymmetricLimit) {
+  Lcg rng{31};
+  double worst = 0;
+  for (const Vec3& I : {Vec3(2, 2, 7), Vec3(7, 2, 7), Vec3(2, 2 * (1 + 1e-15), 7), Vec3(3, 8, 8 * (1 + 1e-9))}) {
+    for (int rep = 0; rep < 10; ++rep) {
+      const Mat3 R0 = rng.rotation();
+      const FreeRotation fr(I, R0, R0 * rng.vec(-2, 2));
+      if (fr.mode() != FreeRotation::Mode::Elliptic) continue;
+      EXPECT_TRUE(fr.uses_series()) << "m " << fr.parameter_m();
+      const double T = fr.body_period();
+      for (double u : {0.0, 0.3, -1.7, 12.9, 9999.3}) {
+        const double e = max_abs(fr.orientation(u * T) - fr.orientation_reference(u * T));
+        EXPECT_LE(e, 1e-13) << "I " << I.transpose() << " m " << fr.parameter_m() << " t/T " << u;
+        worst = std::max(worst, e);
+      }
+    }
+  }
+  std::printf("series vs reference at m = 0 and tiny m: max |dR| = %.2e\n", worst);
 }
 
 // ---- special functions against Boost.Math --------------------------------------

@@ -64,6 +64,42 @@
 // from 1/(1 - n tanh^2) = (1/(1-n)) (1 - n sech^2 / (1 - n tanh^2)).
 
 //
+// Theta series (the fast path, 0 <= m <~ 0.985). With the nome
+// q = exp(-pi K'/K) and zeta = pi v / (2K) [DLMF 22.2.1], the theta functions
+// [DLMF 20.2.1-4] give sn, cn, dn as quotients [DLMF 22.2.4-6]:
+//   sn = (theta3(0)/theta2(0)) theta1(zeta)/theta4(zeta),
+//   cn = (theta4(0)/theta2(0)) theta2(zeta)/theta4(zeta),
+//   dn = (theta4(0)/theta3(0)) theta3(zeta)/theta4(zeta),
+// with terms q^(k^2) (theta3, theta4) and q^(k(k+1)) (theta1, theta2 after the
+// common factor 2 q^(1/4) is divided out): for q <= 0.25 (m <~ 0.985) the
+// terms fall below 2^-60 by k = 6. The harmonics cos, sin of (2k) zeta and (2k+1) zeta come
+// from one sincos by complex multiplication with e^(2 i zeta), whose error grows
+// only linearly in k while the coefficients fall like q^(k^2).
+// The precession integral: Jacobi's third-kind integral [Whittaker & Watson,
+// Modern Analysis, sec. 22.74] is, differentiated,
+//   m sn a cn a dn a sn^2 u / (1 - m sn^2 a sn^2 u) = Z(a) + (Z(u-a) - Z(u+a))/2,
+// Z = (pi/2K) theta4'/theta4 the Jacobi zeta function. Our n = m sn^2 a <= 0
+// needs an imaginary a = i b, 0 <= b < K'; by Jacobi's imaginary
+// transformation [DLMF 22.6(iv)] sn^2(ib|m) = -sc^2(b|m'), so sc^2(b|m') = -n/m,
+// |m sn a cn a dn a| = D = sqrt(-n (m - n) (1 - n)), and [DLMF 19.25.5 with the
+// homogeneity of R_F]
+//   b = sqrt(-n) R_F(m, m(1-n), m-n),   x = K' - b = R_F(-n, m-n, 1-n).
+// Integrating, J(v) = (J(K)/K) v + P(v) with the odd, 2K-periodic
+//   P(v) = -arg theta4(zeta + i beta) / D,   beta = pi b / (2K),
+//   theta4(zeta + i beta) = 1 + sum_k 2 (-1)^k q^(k^2) [cosh(2k beta) cos 2k zeta
+//                                                       - i sinh(2k beta) sin 2k zeta],
+// where q^(k^2) e^(+-2k beta) = exp(-(pi/K) k ((k -+ 1) K' +- b)): also at most a
+// few terms (the first is exp(-pi x/K) <= exp(-pi^2/4K) since x >= pi/4).
+// The real part stays above 1 - sum |coefficients| > 0 (checked in the
+// constructor), so arg = atan(Im/Re) with no branch. As n -> 0, b, the
+// sinh terms and D vanish together; the constructor stores Im/D, whose limit
+// at n = 0 is the Fourier series of -Z(u)/m [DLMF 20.5.13] (J = (u - E(u))/m).
+// The slope J(K)/K comes from the same R_J value as the reference path, so the
+// secular part of psi is shared; the series changes only the bounded
+// periodic part. Near the separatrix (q > 0.25) the reference path is used:
+// theta4 approaches zero there (theta4(0)^2 = k' 2K/pi) and the terms of the
+// precession series approach 1.
+//
 // Long times. The phase grows like t; its rounding would grow like 1e-16 t.
 // The constants that multiply t or the period count (lambda, 2K, and the
 // advance of psi per 2K of u) are computed in long double and kept as
@@ -188,11 +224,21 @@ void split(LD x, double& hi, double& lo) {
   lo = static_cast<double>(x - hi);
 }
 
-Mat3 rotation_z(double psi) {
-  const double c = std::cos(psi), s = std::sin(psi);
-  Mat3 R;
-  R << c, -s, 0, s, c, 0, 0, 0, 1;
-  return R;
+constexpr LD kPi = 3.141592653589793238462643383279502884L;
+
+// The series path is used for nomes up to this value (m <= ~0.985): terms
+// q^(k^2) fall below 2^-60 by k = 6, and theta4 >= theta4(0) = 1 - 2q + 2q^4 - ... > 0.5.
+constexpr LD kNomeMax = 0.25L;
+constexpr LD kSeriesTol = 8.7e-19L;  // 2^-60
+
+// Arithmetic-geometric mean of a, b >= 0 [DLMF 19.8.1], to long double accuracy.
+LD agm(LD a, LD b) {
+  for (int i = 0; i < 64 && std::abs(a - b) > 1e-12L * a; ++i) {  // then (a+b)/2 is exact to ~1e-25
+    const LD a_next = (a + b) / 2;
+    b = std::sqrt(a * b);
+    a = a_next;
+  }
+  return (a + b) / 2;
 }
 
 }  // namespace
@@ -324,6 +370,14 @@ FreeRotation::FreeRotation(const Vec3& principal_moments, const Mat3& R0, const 
     P_ = Px;
   }
   A_ = R0 * P_ * body_rotation(P_.transpose() * Lb * inv_L_).transpose();
+  for (int row = 0; row < 3; ++row) {
+    for (int k = 0; k < 3; ++k) {
+      if (P_(row, k) != 0.0) {
+        perm_[row] = k;
+        perm_sign_[row] = P_(row, k);
+      }
+    }
+  }
 
   if (mc_ == 0.0) {
     mode_ = Mode::Separatrix;
@@ -366,6 +420,97 @@ FreeRotation::FreeRotation(const Vec3& principal_moments, const Mat3& R0, const 
   const LD Jc = elliptic::rj<LD>(0, mc, 1, 1 - n) / 3;
   split(2 * K / lam, t_half_hi_, t_half_lo_);
   split(rate_lin * 2 * K / lam + coef_j * 2 * Jc, psi_half_hi_, psi_half_lo_);
+  init_series(m, n, K, Jc);
+  if (series_) {
+    double jp;
+    jacobi_series(u0_, &jp);
+    J0_series_ = j_slope_ * u0_ + jp;
+  }
+}
+
+void FreeRotation::init_series(LD m, LD n, LD K, LD Jc) {
+  series_ = false;
+  // Nome q = exp(-pi K'/K) [DLMF 22.2.1], K' = K(m') = pi / (2 AGM(1, k)).
+  const LD Kp = m > 0 ? kPi / (2 * agm(1, std::sqrt(m))) : LD(INFINITY);
+  const LD q = m > 0 ? std::exp(-kPi * Kp / K) : LD(0);
+  if (!(q <= kNomeMax)) return;
+  const LD pk = kPi / K;
+
+  // Precession series: Re, Im/D of theta4(zeta + i beta) (see the top of the file).
+  // e_plus(k) = q^(k^2) e^(2k beta), e_minus(k) = q^(k^2) e^(-2k beta).
+  LD D = 0, x = 0, b = 0;
+  if (n < 0) {
+    D = std::sqrt(-n * (m - n) * (1 - n));
+    x = elliptic::rf<LD>(-n, m - n, 1 - n);
+    b = m > 0 ? std::sqrt(-n) * elliptic::rf<LD>(m, m * (1 - n), m - n) : LD(INFINITY);
+  }
+  // q / m, finite as m -> 0 (q = m/16 + O(m^2) [DLMF 19.5.6-7]).
+  const LD q_over_m = m > 0 ? q / m : LD(1) / 16;
+
+  // Powers by recurrence (no pow): qk = q^k, qk2 = q^(k^2), qkm = q^(k(k-1)).
+  const LD r = n < 0 ? std::exp(-pk * x) : LD(0);     // e^(-pi x / K)
+  const LD theta = pk * b;                             // 2 beta
+  const bool small_beta = n < 0 && theta <= 1;
+  const LD s_exp = n < 0 ? std::exp(-theta) : LD(0);  // e^(-2 beta)
+  const LD sh1 = small_beta ? std::sinh(theta) : LD(0), ch1 = small_beta ? std::cosh(theta) : LD(1);
+  std::array<SeriesTerm, kSeriesTerms + 1> t{};
+  LD th3_0 = 1, th4_0 = 1, t2_0 = 1, re_bound = 1;
+  LD qk = 1, qk2 = 1, qkm = 1, rk = 1, sk = 1, shk = 0, chk = 1;
+  int terms = 0;
+  for (int k = 1; k <= kSeriesTerms + 1; ++k) {
+    const LD sign = (k % 2 != 0) ? -1 : 1;
+    if (k > 1) qkm *= qk * qk;  // q^(k(k-1)) = q^((k-1)(k-2)) q^(2(k-1))
+    qk2 *= qk * qk * q;         // q^(k^2) = q^((k-1)^2) q^(2k-1)
+    qk *= q;
+    rk *= r;
+    sk *= s_exp;
+    const LD shk_next = shk * ch1 + chk * sh1;  // sinh(k theta), cosh(k theta)
+    chk = chk * ch1 + shk * sh1;
+    shk = shk_next;
+    const LD qkk = qk2 * qk;  // q^(k(k+1))
+    LD cosh_part, sinh_over_d;  // q^(k^2) cosh(2k beta), q^(k^2) sinh(2k beta) / D
+    if (n == 0) {
+      // b = 0: sinh(2k beta)/D -> k pi / (K m); q^(k^2)/m = (q/m) q^(k^2-1).
+      cosh_part = qk2;
+      const LD qk2_over_q = k == 1 ? LD(1) : (q > 0 ? qk2 / q : LD(0));
+      sinh_over_d = q_over_m * qk2_over_q * k * pk;
+    } else if (small_beta) {
+      cosh_part = qk2 * chk;
+      sinh_over_d = qk2 * shk / D;
+    } else {
+      // q^(k^2) e^(+-2k beta) = q^(k(k-1)) r^k, q^(k^2) e^(-2k beta); e_minus <= e^-2 e_plus.
+      const LD e_plus = qkm * rk, e_minus = qk2 * sk;
+      cosh_part = (e_plus + e_minus) / 2;
+      sinh_over_d = (e_plus - e_minus) / (2 * D);
+    }
+    const bool negligible = qk2 < kSeriesTol && qkk < kSeriesTol && cosh_part < kSeriesTol &&
+                            2 * sinh_over_d < kSeriesTol * Jc;
+    if (negligible) break;
+    if (k > kSeriesTerms) return;  // too many terms: keep the reference path
+    terms = k;
+    t[k].th3 = static_cast<double>(2 * qk2);
+    t[k].th4 = static_cast<double>(2 * sign * qk2);
+    t[k].t1 = static_cast<double>(sign * qkk);
+    t[k].t2 = static_cast<double>(qkk);
+    t[k].jr = static_cast<double>(2 * sign * cosh_part);
+    t[k].ji = static_cast<double>(-2 * sign * sinh_over_d);
+    th3_0 += 2 * qk2;
+    th4_0 += 2 * sign * qk2;
+    t2_0 += qkk;
+    re_bound -= 2 * cosh_part;
+  }
+  // Re theta4(zeta + i beta) >= re_bound: keep atan(Im/Re) on its principal branch
+  // and well conditioned.
+  if (re_bound < 0.25L) return;
+  ser_ = t;
+  ser_n_ = terms;
+  zeta_scale_ = static_cast<double>(pk / 2);
+  c_sn_ = static_cast<double>(th3_0 / t2_0);
+  c_cn_ = static_cast<double>(th4_0 / t2_0);
+  c_dn_ = static_cast<double>(th4_0 / th3_0);
+  j_slope_ = static_cast<double>(Jc / K);
+  j_d_ = static_cast<double>(D);
+  series_ = true;
 }
 
 double FreeRotation::body_period() const {
@@ -414,6 +559,37 @@ FreeRotation::Jacobi FreeRotation::jacobi(double v) const {
   return f;
 }
 
+FreeRotation::Jacobi FreeRotation::jacobi_series(double v, double* jp) const {
+  const double zeta = zeta_scale_ * v;
+  const double s1 = std::sin(zeta), c1 = std::cos(zeta);
+  const double c2 = (c1 - s1) * (c1 + s1), s2 = 2.0 * s1 * c1;  // e^(2 i zeta)
+  double ce = 1.0, se = 0.0;  // e^(2 i k zeta)
+  double co = c1, so = s1;    // e^(i (2k+1) zeta)
+  double th3 = 1.0, th4 = 1.0, t1 = s1, t2 = c1, re = 1.0, im = 0.0;
+  for (int k = 1; k <= ser_n_; ++k) {
+    const SeriesTerm& a = ser_[k];
+    const double ce_next = ce * c2 - se * s2;
+    se = se * c2 + ce * s2;
+    ce = ce_next;
+    const double co_next = co * c2 - so * s2;
+    so = so * c2 + co * s2;
+    co = co_next;
+    th3 += a.th3 * ce;
+    th4 += a.th4 * ce;
+    t1 += a.t1 * so;
+    t2 += a.t2 * co;
+    re += a.jr * ce;
+    im += a.ji * se;
+  }
+  const double inv4 = 1.0 / th4;
+  if (jp) {
+    // P(v) = -arg theta4(zeta + i beta) / D, Re > 0; im holds Im / D.
+    const double r = im / re;
+    *jp = j_d_ > 0.0 ? -std::atan(j_d_ * r) / j_d_ : -r;
+  }
+  return {c_sn_ * t1 * inv4, c_cn_ * t2 * inv4, c_dn_ * th3 * inv4};
+}
+
 double FreeRotation::integral_j(double v, const Jacobi& f) const {
   if (mode_ == Mode::Separatrix) {
     const double sq = std::sqrt(-n_);
@@ -425,8 +601,10 @@ double FreeRotation::integral_j(double v, const Jacobi& f) const {
 }
 
 Vec3 FreeRotation::momentum_xp(double j, const Jacobi& f) const {
-  // sn and cn change sign with every half period 2K; dn does not.
-  const double sign = std::fmod(j, 2.0) != 0.0 ? -1.0 : 1.0;
+  // sn and cn change sign with every half period 2K; dn does not. (j is an
+  // integer; j/2 is exact, so it is a whole number iff j is even.)
+  const double half = 0.5 * j;
+  const double sign = std::floor(half) != half ? -1.0 : 1.0;
   const double Lx = sign * amp_a_ * f.cn, Ly = sign * amp_b_ * f.sn, Lz = amp_c_ * f.dn;
   return pole_x_ ? Vec3(Ly, Lz, Lx) : Vec3(Lx, Ly, Lz);
 }
@@ -441,19 +619,49 @@ Mat3 FreeRotation::body_rotation(const Vec3& l) const {
   return G;
 }
 
-Vec3 FreeRotation::angular_momentum_body(double dt) const {
+Mat3 FreeRotation::compose(double psi, const Vec3& l) const {
+  // With the columns a0, a1, a2 of A and the rows g1, g2, g3 = l of G:
+  // A Rz(psi) G = (c a0 + s a1) g1^T + (c a1 - s a0) g2^T + a2 l^T, and the
+  // product with P^T is a signed permutation of the rows g_i (columns of the result).
+  const double c = std::cos(psi), s = std::sin(psi);
+  const double p2 = l[0] * l[0] + l[1] * l[1];  // >= 1/2 by the choice of the pole
+  const double ip = 1.0 / std::sqrt(p2);
+  const double g1[3] = {l[0] * l[2] * ip, l[1] * l[2] * ip, -p2 * ip};
+  const double g2[3] = {-l[1] * ip, l[0] * ip, 0.0};
+  Mat3 R;
+  for (int col = 0; col < 3; ++col) {
+    const int k = perm_[col];
+    const double sg = perm_sign_[col];
+    const double x1 = sg * g1[k], x2 = sg * g2[k], x3 = sg * l[k];
+    const double e = c * x1 - s * x2, f = s * x1 + c * x2;  // (Rz G P^T)(0..1, col)
+    for (int row = 0; row < 3; ++row) R(row, col) = A_(row, 0) * e + A_(row, 1) * f + A_(row, 2) * x3;
+  }
+  return R;
+}
+
+Vec3 FreeRotation::angular_momentum_body_impl(double dt, bool series) const {
   if (mode_ == Mode::Rest || mode_ == Mode::Uniform) return R0_.transpose() * L_world_;
   double j;
   const double v = reduced_argument(dt, j);
-  return P_ * momentum_xp(j, jacobi(v));
+  return P_ * momentum_xp(j, series ? jacobi_series(v, nullptr) : jacobi(v));
 }
+
+Vec3 FreeRotation::angular_momentum_body(double dt) const { return angular_momentum_body_impl(dt, series_); }
 
 Vec3 FreeRotation::omega_body(double dt) const {
   if (mode_ == Mode::Rest || mode_ == Mode::Uniform) return omega_body0_;
-  return angular_momentum_body(dt).cwiseQuotient(moments_);
+  return angular_momentum_body_impl(dt, series_).cwiseQuotient(moments_);
 }
 
-Mat3 FreeRotation::orientation(double dt) const {
+Vec3 FreeRotation::omega_body_reference(double dt) const {
+  if (mode_ == Mode::Rest || mode_ == Mode::Uniform) return omega_body0_;
+  return angular_momentum_body_impl(dt, false).cwiseQuotient(moments_);
+}
+
+Mat3 FreeRotation::orientation(double dt) const { return orientation_impl(dt, series_); }
+Mat3 FreeRotation::orientation_reference(double dt) const { return orientation_impl(dt, false); }
+
+Mat3 FreeRotation::orientation_impl(double dt, bool series) const {
   switch (mode_) {
     case Mode::Rest:
       return R0_;
@@ -465,11 +673,20 @@ Mat3 FreeRotation::orientation(double dt) const {
   }
   double j;
   const double v = reduced_argument(dt, j);
-  const Jacobi f = jacobi(v);
+  Jacobi f;
+  double J_rel;  // J(v) - J(u0)
+  if (series) {
+    double jp;
+    f = jacobi_series(v, &jp);
+    J_rel = (j_slope_ * v + jp) - J0_series_;
+  } else {
+    f = jacobi(v);
+    J_rel = integral_j(v, f) - J0_;
+  }
   const Vec3 l = momentum_xp(j, f) * inv_L_;
   double psi;
   if (mode_ == Mode::Separatrix) {
-    psi = rate_lin_ * dt + coef_j_ * (integral_j(v, f) - J0_);
+    psi = rate_lin_ * dt + coef_j_ * J_rel;
   } else {
     // psi = j psi_half (mod 2 pi) + rate_lin (dt - j T_half) + coef_j (J(v) - J(u0)),
     // T_half = 2K/lambda. (Not (v - u0)/lambda: that loses all accuracy when
@@ -479,9 +696,9 @@ Mat3 FreeRotation::orientation(double dt) const {
     const double turns = std::nearbyint(q / kTwoPiHi);
     const double secular = std::fma(-turns, kTwoPiHi, q) + (q_err + j * psi_half_lo_ - turns * kTwoPiLo);
     const double t_local = std::fma(-j, t_half_hi_, dt) - j * t_half_lo_;
-    psi = secular + rate_lin_ * t_local + coef_j_ * (integral_j(v, f) - J0_);
+    psi = secular + rate_lin_ * t_local + coef_j_ * J_rel;
   }
-  return A_ * rotation_z(psi) * body_rotation(l) * P_.transpose();
+  return compose(psi, l);
 }
 
 Vec3 FreeRotation::omega_world(double dt) const { return orientation(dt) * omega_body(dt); }

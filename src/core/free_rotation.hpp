@@ -22,8 +22,15 @@
 // precession angle by their periods with constants kept beyond double
 // precision, so their accuracy does not degrade with |dt|: ~1e-14 after 1e4
 // rotation periods against a 40-digit evaluation (tests/test_free_rotation.cpp).
-// Cost: ~0.4-0.5 us per orientation(), ~0.2 us per omega_body(), ~1-1.5 us per
-// construction (long double), on the development machine.
+// Evaluation: for m up to ~0.985 (nome q <= 0.25) by theta-function series
+// whose coefficients the constructor precomputes (per call: two sincos, one
+// atan, at most 6 recurrence steps); closer to the separatrix by the reference
+// path (AGM for sn, cn, dn; Carlson R_J for the precession angle), which
+// orientation_reference() also exposes. The two agree to ~1e-14 over 1e4
+// periods (tests/test_free_rotation.cpp).
+// Cost (development machine, bench/bench_geometry): ~0.11 us per orientation(),
+// ~0.05 us per omega_body() on the series path; ~0.3-0.4 us and ~0.12-0.19 us
+// on the reference path; ~2 us per construction (long double).
 
 #include <array>
 
@@ -43,6 +50,12 @@ class FreeRotation {
 
   Mat3 orientation(double dt) const;     // world <- body at t0 + dt
   Vec3 omega_body(double dt) const;      // body-frame angular velocity
+  // The same by the reference path (AGM and Carlson R_J at every call), which
+  // the series path falls back to near the separatrix; for tests.
+  Mat3 orientation_reference(double dt) const;
+  Vec3 omega_body_reference(double dt) const;
+  // True if orientation() and omega_body() use the theta series.
+  bool uses_series() const { return series_; }
   Vec3 omega_world(double dt) const;     // = orientation(dt) * omega_body(dt)
   Vec3 angular_momentum_body(double dt) const;  // L in the body frame
   const Vec3& angular_momentum() const { return L_world_; }  // world, constant
@@ -81,6 +94,14 @@ class FreeRotation {
   // sn, cn, dn at v, |v| <= K (any v on the separatrix).
   Jacobi jacobi(double v) const;
   Vec3 momentum_xp(double j, const Jacobi& f) const;  // L in X' at u = 2jK + v
+  // sn, cn, dn at v, |v| <= K, by theta quotients; with jp != nullptr also the
+  // periodic part of J: J(v) = j_slope v + *jp (series_ only).
+  Jacobi jacobi_series(double v, double* jp) const;
+  void init_series(long double m, long double n, long double K, long double Jc);
+  Vec3 angular_momentum_body_impl(double dt, bool series) const;
+  Mat3 orientation_impl(double dt, bool series) const;
+  // A Rz(psi) G(l) P^T without forming P^T or the intermediate products.
+  Mat3 compose(double psi, const Vec3& l) const;
   // sn, cn, dn for 0 <= w <= K/2 by the AGM (Abramowitz & Stegun 16.4).
   Jacobi jacobi_agm(double w) const;
   // J(v) = int_0^v sn^2 / (1 - n sn^2) du for |v| <= K (m < 1), or any v (m = 1).
@@ -123,6 +144,26 @@ class FreeRotation {
   int agm_n_ = 0;
   double agm_scale_ = 1;
   std::array<double, 40> agm_ratio_{};
+
+  // Theta series (series_ true; see free_rotation.cpp). zeta = zeta_scale v;
+  // term k = 1..ser_n_ multiplies cos 2k zeta, sin 2k zeta or cos, sin of
+  // (2k+1) zeta; the k = 0 terms are 1, sin zeta and cos zeta.
+  struct SeriesTerm {
+    double th3, th4;  // 2 q^(k^2) and 2 (-1)^k q^(k^2): theta_3, theta_4
+    double t1, t2;    // (-1)^k q^(k(k+1)) and q^(k(k+1)): theta_1, theta_2 / (2 q^(1/4))
+    double jr, ji;    // Re and Im / D of theta_4(zeta + i beta), see J
+  };
+  static constexpr int kSeriesTerms = 8;
+  bool series_ = false;
+  int ser_n_ = 0;
+  double zeta_scale_ = 0;            // pi / (2K)
+  double c_sn_ = 0, c_cn_ = 0, c_dn_ = 0;  // theta-constant prefactors
+  double j_slope_ = 0, j_d_ = 0;     // J(K)/K; D of the periodic part
+  double J0_series_ = 0;             // J(u0) by the series
+  std::array<SeriesTerm, kSeriesTerms + 1> ser_{};  // index k; [0] unused
+  // Body <- X' as a signed permutation: (P x)[r] = perm_sign[r] x[perm[r]].
+  std::array<int, 3> perm_{{0, 1, 2}};
+  std::array<double, 3> perm_sign_{{1, 1, 1}};
 };
 
 // Carlson's symmetric elliptic integrals [Carlson, Numer. Algorithms 10, 13
