@@ -1,5 +1,7 @@
 #include "core/pose.hpp"
 
+#include <cmath>
+
 namespace ringsim {
 
 Vec3 body_omega(const BodyStore& b, int i, double t) {
@@ -32,6 +34,28 @@ double point_rotation_bound(const BodyStore& b, int i, double arm) {
   const int g = b.group[i];
   if (g < 0) return b.shape[i] == Shape::Sphere ? 0.0 : b.kin[i].precession.norm() * arm;
   return b.clusters[g].max_rate * (b.reach[i] + arm);
+}
+
+LocalMotion local_motion(const BodyStore& b, int i, double s) {
+  const int g = b.group[i];
+  if (g < 0) {
+    if (b.shape[i] == Shape::Sphere) return {Vec3::Zero(), 0.0};
+    const Vec3& w = b.kin[i].precession;
+    return {w, w.squaredNorm()};
+  }
+  const Cluster& c = b.clusters[g];
+  // omega = I_world^-1 L = R diag(1/I) R^T L (L world and constant; R cached
+  // by the caller's pose queries at s), without the elliptic functions.
+  const Mat3& R = c.orientation_at(s);
+  const Vec3 omega = R * (R.transpose() * c.rot.angular_momentum()).cwiseQuotient(c.moments);
+  // |omega'|: Euler's equations in the principal frame (Landau & Lifshitz,
+  // Mechanics, section 36), I_1 w_1' = (I_2 - I_3) w_2 w_3 and cyclic, with
+  // |w_j w_k| <= |omega|^2 / 2; the world-frame derivative has the same norm
+  // (d/dt (R w) = R w' since R' w = omega x omega = 0).
+  const Vec3& I = c.moments;
+  const double k1 = (I[1] - I[2]) / I[0], k2 = (I[2] - I[0]) / I[1], k3 = (I[0] - I[1]) / I[2];
+  const double W2 = c.max_rate * c.max_rate;
+  return {omega, W2 * (1.0 + 0.5 * std::sqrt(k1 * k1 + k2 * k2 + k3 * k3))};
 }
 
 geom::Cylinder body_cylinder(const BodyStore& b, int i, double t) {

@@ -65,6 +65,22 @@ double rotation_bound(const BodyStore& b, int i);
 // `arm` from the body's centre (e.g. a linker end: arm = half length).
 double point_rotation_bound(const BodyStore& b, int i, double arm);
 
+// First-order motion of body i's solid at time s, for certified steps that
+// use the direction of the rotation (core/prediction_clusters.cpp). The
+// solid (a free linker: its shape, which its spin does not move) turns
+// rigidly about the reference point, so r(t) = x(t) - ref(t) keeps its length,
+// r' = omega x r and r'' = omega' x r + omega x (omega x r). By Taylor's
+// theorem with the Lagrange remainder every material point x obeys
+//   x(s + tau) = x(s) + tau (v + omega(s) x r(s)) + e,
+//   |e| <= accel |r(s)| tau^2 / 2,  accel >= max_t (|omega'(t)| + |omega(t)|^2),
+// with v = reference_velocity. Free sphere: omega = 0, accel = 0 (its ball
+// never changes); free linker: omega = Omega, constant (core/motion.hpp).
+struct LocalMotion {
+  Vec3 omega;    // angular velocity of the solid at s (world)
+  double accel;  // bound on |r''| / |r| for all times
+};
+LocalMotion local_motion(const BodyStore& b, int i, double s);
+
 geom::Cylinder body_cylinder(const BodyStore& b, int i, double t);
 
 // World inverse inertia tensor and mass of what an impulse on body i moves:

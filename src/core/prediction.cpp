@@ -11,7 +11,9 @@
 
 namespace ringsim {
 
+using detail::concave_reach;
 using detail::sphere_window;
+using detail::SweptSupport;
 using detail::wall_window_impl;
 
 namespace {
@@ -166,6 +168,17 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
     // contact) aim at half the current gap, so the gap never closes unseen.
     const double gap = std::min(d, delta_);
     const double target = 0.5 * gap, stop = 0.75 * gap;
+    // A step every branch below may take at least: the plane along the
+    // closest points' normal with both supports swept by the precession
+    // (SweptSupport, prediction_windows.hpp), certified on its own.
+    double swept_to = s;
+    {
+      const Vec3& n = g.sep.normal;
+      const SweptSupport sa(b_, i, s, n, g.center_a, g.center_a), sb(b_, j, s, -n, g.center_b, g.center_b);
+      const double gap0 = n.dot(g.center_b - g.center_a), rate = n.dot(dv);
+      auto lower = [&](double tau) { return gap0 + rate * tau - sa.at(tau) - sb.at(tau); };
+      swept_to = s + concave_reach(lower, target, std::max((d - target) / bound, min_step(bound)), end - s, &plane_evaluations_);
+    }
     const RankedNormals r = rank_normals(i, j, s, g);
     // A contact on a linker's face or side: a plane turning with that linker
     // (corotating_plane.hpp) converges like Newton's method.
@@ -179,7 +192,7 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
         const double reached = cp.advance(s, end, target, stop, &plane_evaluations_, kPlaneBudget);
         // Worth it only when it beats the plain conservative step.
         if (reached - s > (d - target) / bound) {
-          s = reached;
+          s = std::max(reached, swept_to);
           continue;
         }
       }
@@ -189,11 +202,12 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
       // step, from a proven lower bound only: an unproven distance may be too
       // large (FCL's GJK near contact), and stepping by it could pass a contact.
       const double proven = g.certified ? d : r.value[r.best];
-      s += std::max((proven - target) / bound, min_step(bound));
+      s = std::max(s + std::max((proven - target) / bound, min_step(bound)), swept_to);
       continue;
     }
     const SeparatingPlane plane = plane_along(i, j, s, g, r.normal[r.best]);
-    s = std::max(s + min_step(bound), advance_plane(plane, s, end, target, stop, bound, &plane_evaluations_, kPlaneBudget));
+    s = std::max({s + min_step(bound), swept_to,
+                  advance_plane(plane, s, end, target, stop, bound, &plane_evaluations_, kPlaneBudget)});
   }
   failed_ = true;
   return kNever;

@@ -15,7 +15,11 @@
 //   rate n.(u_B - u_A) < 0. A search is restricted to the one interval in
 //   which the bounding spheres overlap (their centres move on straight lines)
 //   and to the caller's horizon (the body's current earliest event), which is
-//   what keeps it cheap. There is no iteration cap that can miss a contact: a
+//   what keeps it cheap. Every step may be lengthened by a swept-support
+//   bound (prediction_windows.hpp): a concave lower bound of the plane value
+//   along the closest points' normal, from each body's first-order rotation
+//   at its present angular velocity plus a Taylor remainder (core/pose.hpp,
+//   LocalMotion). There is no iteration cap that can miss a contact: a
 //   search that cannot finish reports failure and the replicate stops with an
 //   error.
 

@@ -10,7 +10,12 @@
 
 namespace ringsim {
 
+using detail::concave_reach;
+using detail::point_motion;
+using detail::PointMotion;
+using detail::quadratic_reach;
 using detail::sphere_window;
+using detail::SweptSupport;
 using detail::wall_window_impl;
 
 bool Predictor::wall_window(double x, double v, int dir, double reach, double t, double* start, double* end) const {
@@ -46,7 +51,22 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       const RankedNormals r = rank_normals(i, j, s, g);
       proven = r.value[r.best];
     }
-    s += std::max((proven - target) / bound, min_step(bound));
+    double advance_by = std::max((proven - target) / bound, min_step(bound));
+    if (s + advance_by < end) {
+      // The separating plane along the closest points' normal, with each
+      // body's support swept by its own rotation (SweptSupport): a concave
+      // lower bound of d over the step that uses the actual directions of the
+      // angular velocities and the signed approach rate n.(v_B - v_A) instead
+      // of the largest speed of any point.
+      const Vec3& n = g.sep.normal;
+      const Vec3 ref_a = g.center_a + (reference_center(b_, i, s) - body_center(b_, i, s));
+      const Vec3 ref_b = g.center_b + (reference_center(b_, j, s) - body_center(b_, j, s));
+      const SweptSupport sa(b_, i, s, n, g.center_a, ref_a), sb(b_, j, s, -n, g.center_b, ref_b);
+      const double gap0 = n.dot(ref_b - ref_a), rate = n.dot(dv);
+      auto lower = [&](double tau) { return gap0 + rate * tau - sa.at(tau) - sb.at(tau); };
+      advance_by = std::max(advance_by, concave_reach(lower, target, advance_by, end - s, &plane_evaluations_));
+    }
+    s += advance_by;
   }
   failed_ = true;
   return kNever;
@@ -89,7 +109,18 @@ WallHit Predictor::wall_generic(int i, double t, double limit) {
           sc += step_floor;
           continue;
         }
-        sc += std::max((g - 0.5 * std::min(g, delta_)) / bound, step_floor);
+        const double target = 0.5 * std::min(g, delta_);
+        double advance_by = std::max((g - target) / bound, step_floor);
+        if (sc + advance_by < end) {
+          // The wall is a plane: gap = (L or 0) - (support along n), and the
+          // swept support bounds the support over the step (SweptSupport).
+          const Vec3 ref = reference_center(b_, i, sc);
+          const SweptSupport sw(b_, i, sc, n, c, ref);
+          const double gap0 = (dir > 0 ? L : 0.0) - n.dot(ref), rate = -n.dot(V);
+          auto lower = [&](double tau) { return gap0 + rate * tau - sw.at(tau); };
+          advance_by = std::max(advance_by, concave_reach(lower, target, advance_by, end - sc, &plane_evaluations_));
+        }
+        sc += advance_by;
       }
     }
   }
@@ -115,7 +146,21 @@ double Predictor::leave_cell(int i, double t, double limit, const Vec3& lo, doub
     double f = kNever;  // distance to the nearest face, negative outside
     for (int d = 0; d < 3; ++d) f = std::min({f, x[d] - lo[d], lo[d] + w - x[d]});
     if (f <= -0.5 * eps) return s;
-    s += std::max((f + 0.5 * eps) / bound, floor_step);
+    double advance_by = std::max((f + 0.5 * eps) / bound, floor_step);
+    if (s + advance_by < limit) {
+      // Each face distance is bounded below by a concave quadratic from the
+      // centre's first-order motion (PointMotion); step to the first time any
+      // of them can reach -eps/2.
+      const Vec3 c = body_center(b_, i, s);
+      const PointMotion pm = point_motion(b_, i, s, c, reference_center(b_, i, s));
+      double reach = kNever;
+      for (int d = 0; d < 3; ++d) {
+        reach = std::min(reach, quadratic_reach(x[d] - lo[d], pm.vel[d], pm.quad, -0.5 * eps));
+        reach = std::min(reach, quadratic_reach(lo[d] + w - x[d], -pm.vel[d], pm.quad, -0.5 * eps));
+      }
+      advance_by = std::max(advance_by, reach);
+    }
+    s += advance_by;
   }
   if (s < limit) failed_ = true;
   return kNever;
@@ -175,7 +220,22 @@ double Predictor::capture(int l, int end, int s, double t, double limit, double 
       x += floor_step;
       continue;
     }
-    x += std::max((g - 0.5 * delta_) / bound, floor_step);
+    double advance_by = std::max((g - 0.5 * delta_) / bound, floor_step);
+    if (x + advance_by < stop) {
+      // The gap along the present direction n from the end to the sphere's
+      // centre bounds it from below: |c_S - p| >= n.(c_S - p), and each point
+      // follows its first-order motion within a quadratic remainder
+      // (PointMotion), a concave quadratic lower bound of the gap.
+      const Vec3 cl = body_center(b_, l, x);
+      const Vec3 p = cl + (end == 0 ? h : -h) * body_axis(b_, l, x);
+      const Vec3 cs = p + box_.min_image(body_center(b_, s, x) - p);
+      const Vec3 n = (cs - p).normalized();
+      const PointMotion mp = point_motion(b_, l, x, p, cl + (reference_center(b_, l, x) - body_center(b_, l, x)));
+      const PointMotion ms = point_motion(b_, s, x, cs, cs + (reference_center(b_, s, x) - body_center(b_, s, x)));
+      const double a = n.dot(cs - p) - rs - rc;
+      advance_by = std::max(advance_by, quadratic_reach(a, n.dot(ms.vel - mp.vel), mp.quad + ms.quad, 0.5 * delta_));
+    }
+    x += advance_by;
   }
   failed_ = true;
   return kNever;

@@ -1,11 +1,14 @@
 #pragma once
 // Time windows of prediction: when two bounding spheres moving on straight
-// lines overlap, and when a linearly moving point is near a wall. Shared by
+// lines overlap, and when a linearly moving point is near a wall; and the
+// swept-support bounds of certified steps (a body's support or a point over a
+// step, from its first-order motion, core/pose.hpp LocalMotion). Shared by
 // prediction.cpp and prediction_clusters.cpp.
 
 #include <algorithm>
 #include <cmath>
 
+#include "core/pose.hpp"
 #include "core/prediction.hpp"
 #include "core/vec.hpp"
 
@@ -52,6 +55,103 @@ inline bool wall_window_impl(double L, double x, double v, int dir, double reach
     return false;
   }
   return true;
+}
+
+// Upper bound of the support of body i's solid along the unit direction n at
+// s + tau, less the reference point's own motion n.(ref + v tau), from its pose
+// and LocalMotion at s (core/pose.hpp). Each point obeys
+//   n.x(s + tau) <= n.ref(s + tau) + n.r + tau n.(omega x r) + accel |r| tau^2 / 2
+// and n.(omega x r) = r.(n x omega), so the maximum over the solid is its
+// support about ref along the turned, unnormalised direction
+// m = n + tau (n x omega): m.(c - ref) + h(m), h(m) = h |u.m| + r |u x m| for a
+// cylinder (support functions are positively homogeneous) and r for a sphere,
+// whose ball does not turn. A support function of an affine argument plus a
+// convex quadratic: convex in tau.
+struct SweptSupport {
+  Vec3 n, turn, offset, axis;
+  double radius = 0.0, half_length = 0.0, quad = 0.0;
+  bool sphere = true;
+
+  SweptSupport(const BodyStore& b, int i, double s, const Vec3& dir, const Vec3& center, const Vec3& ref) {
+    const Species& sp = b.sp(i);
+    const LocalMotion lm = local_motion(b, i, s);
+    n = dir;
+    turn = dir.cross(lm.omega);
+    offset = center - ref;
+    sphere = sp.shape == Shape::Sphere;
+    radius = sp.radius;
+    half_length = sp.half_length;
+    if (!sphere) axis = body_axis(b, i, s);
+    // |r| over the solid: the centre's offset plus the body's own extent
+    // (a sphere: only its centre moves the ball).
+    const double rho = offset.norm() + (sphere ? 0.0 : sp.bounding_radius);
+    quad = 0.5 * lm.accel * rho;
+  }
+  double at(double tau) const {
+    const Vec3 m = n + tau * turn;
+    double h = m.dot(offset) + quad * tau * tau;
+    if (sphere) return h + radius;
+    return h + half_length * std::abs(axis.dot(m)) + radius * axis.cross(m).norm();
+  }
+};
+
+// For a concave f: a tau in [0, tau_max] with f >= level on all of [0, tau]
+// (f(0) >= level and f(tau) >= level suffice, by concavity), as large as
+// cheaply found; 0 when f(0) or f(tau0) is below level (then no step beyond
+// tau0 is provable: f stays below level past it). Doubling from tau0, then
+// regula falsi on the last bracket: for a concave f the chord lies below f, so
+// a chord root is again a point with f >= level (each is checked anyway).
+template <class F>
+double concave_reach(const F& f, double level, double tau0, double tau_max, long* evaluations) {
+  constexpr int kDoublings = 24, kChords = 3;
+  double good = std::min(tau0, tau_max);
+  *evaluations += 2;
+  if (!(f(0.0) >= level)) return 0.0;
+  double f_good = f(good);
+  if (!(f_good >= level)) return 0.0;
+  double bad = 0.0, f_bad = 0.0;
+  for (int k = 0; k < kDoublings && good < tau_max; ++k) {
+    const double next = std::min(2.0 * good, tau_max);
+    ++*evaluations;
+    const double fn = f(next);
+    if (!(fn >= level)) {
+      bad = next, f_bad = fn;
+      break;
+    }
+    good = next, f_good = fn;
+  }
+  if (bad == 0.0) return good;
+  for (int k = 0; k < kChords && bad - good > 0.05 * good; ++k) {
+    const double c = good + (f_good - level) * (bad - good) / (f_good - f_bad);
+    if (!(c > good && c < bad)) break;
+    ++*evaluations;
+    const double fc = f(c);
+    if (fc >= level) good = c, f_good = fc;
+    else bad = c, f_bad = fc;
+  }
+  return good;
+}
+
+// Largest tau >= 0 with a + b tau - c tau^2 >= level (c >= 0, a >= level): the
+// larger root of the concave quadratic, in the form without cancellation.
+inline double quadratic_reach(double a, double b, double c, double level) {
+  const double room = a - level;
+  if (!(room >= 0.0)) return 0.0;
+  if (b < 0.0) return 2.0 * room / (std::sqrt(b * b + 4.0 * c * room) - b);
+  if (c > 0.0) return (b + std::sqrt(b * b + 4.0 * c * room)) / (2.0 * c);
+  return kNever;
+}
+
+// First-order motion of one material point x of body i at s (LocalMotion):
+// velocity and the bound on the remainder, |x(s + tau) - x - vel tau| <= quad tau^2.
+struct PointMotion {
+  Vec3 vel;
+  double quad;
+};
+inline PointMotion point_motion(const BodyStore& b, int i, double s, const Vec3& x, const Vec3& ref) {
+  const LocalMotion lm = local_motion(b, i, s);
+  const Vec3 r = x - ref;
+  return {reference_velocity(b, i) + lm.omega.cross(r), 0.5 * lm.accel * r.norm()};
 }
 
 }  // namespace detail
