@@ -145,15 +145,7 @@ if [ "$slurm" = 1 ]; then
 fi
 
 # Here: each point under mpirun in turn; Ctrl-C / SIGTERM stop cleanly (75).
-stop=
-launcher_pid=
-on_signal() {
-  stop=$1
-  echo "sweep.sh: SIG$1: stopping; finished replicates are kept" >&2
-  [ -n "$launcher_pid" ] && kill -USR1 "$launcher_pid" 2> /dev/null
-}
-trap 'on_signal INT' INT
-trap 'on_signal TERM' TERM
+install_stop_traps
 [ "$dry_run" = 1 ] || mkdir -p "$outdir" || die "cannot create $outdir"
 failed=0
 for i in "${!points[@]}"; do
@@ -165,13 +157,7 @@ for i in "${!points[@]}"; do
   for s in "${sets[@]}" "${fields[@]:1}"; do cmd+=(--set "$s"); done
   if [ "$dry_run" = 1 ]; then printf '%q ' "${cmd[@]}"; echo; continue; fi
   echo "sweep.sh: [$((i + 1))/${#points[@]}] ${fields[0]}" >&2
-  "${cmd[@]}" > /dev/null &
-  launcher_pid=$!
-  while kill -0 "$launcher_pid" 2> /dev/null; do wait "$launcher_pid"; done
-  wait "$launcher_pid"
-  rc=$?
-  launcher_pid=
-  if [ -n "$stop" ] && [ "$rc" -ne 0 ]; then rc=75; fi
+  run_stoppable "${cmd[@]}" > /dev/null  # the per-point table; the sweep table follows
   case "$rc" in
     0) ;;
     75) stop=${stop:-ranks} ;;

@@ -142,3 +142,32 @@ resolve_ringsim() {
     ringsim=$(cd "$(dirname "$ringsim")" && pwd)/$(basename "$ringsim")
   fi
 }
+
+# Stoppable launches (the local drivers). install_stop_traps makes Ctrl-C or
+# SIGTERM pass a SIGUSR1 to the running launcher: mpirun forwards it to the
+# ranks, ringsim treats it like SIGTERM, and mpirun then exits with the
+# ranks' 75 (after a SIGTERM of its own it exits with 1). run_stoppable CMD...
+# runs CMD in the background (so the trap runs at once), waits, and sets rc
+# to its status, 75 when a stop was requested and it did not end cleanly.
+# `stop` is empty until a stop was requested.
+stop=
+launcher_pid=
+on_stop_signal() {
+  stop=$1
+  echo "$prog: SIG$1: stopping; finished replicates are kept" >&2
+  [ -n "$launcher_pid" ] && kill -USR1 "$launcher_pid" 2> /dev/null
+}
+install_stop_traps() {
+  trap 'on_stop_signal INT' INT
+  trap 'on_stop_signal TERM' TERM
+}
+run_stoppable() {
+  "$@" &
+  launcher_pid=$!
+  while kill -0 "$launcher_pid" 2> /dev/null; do wait "$launcher_pid"; done
+  wait "$launcher_pid"
+  rc=$?
+  launcher_pid=
+  # a Ctrl-C reaches mpirun from the terminal too, and it may then report 1
+  if [ -n "$stop" ] && [ "$rc" -ne 0 ]; then rc=75; fi
+}

@@ -64,19 +64,7 @@ check_study_values
 resolve_scenarios
 resolve_ringsim --as-given
 
-# Ctrl-C or SIGTERM: pass a SIGUSR1 to mpirun, which forwards it to the
-# ranks; ringsim treats it like SIGTERM, and mpirun then exits with the ranks'
-# 75 (after a SIGTERM of its own it exits with 1). mpirun runs in the
-# background so that the trap runs at once.
-stop=
-launcher_pid=
-on_signal() {
-  stop=$1
-  echo "run-study.sh: SIG$1: stopping; finished replicates are kept" >&2
-  [ -n "$launcher_pid" ] && kill -USR1 "$launcher_pid" 2> /dev/null
-}
-trap 'on_signal INT' INT
-trap 'on_signal TERM' TERM
+install_stop_traps  # Ctrl-C / SIGTERM: SIGUSR1 to mpirun, finished replicates kept (common.sh)
 
 [ "$dry_run" = 1 ] || mkdir -p "$outdir" || die "cannot create $outdir"
 failed=()
@@ -87,14 +75,7 @@ for i in "${!scenarios[@]}"; do
   for s in "${sets[@]}"; do cmd+=(--set "$s"); done
   if [ "$dry_run" = 1 ]; then printf '%q ' "${cmd[@]}"; echo; continue; fi
   echo "run-study.sh: [$((i + 1))/${#scenarios[@]}] ${names[$i]}" >&2
-  "${cmd[@]}" &
-  launcher_pid=$!
-  while kill -0 "$launcher_pid" 2> /dev/null; do wait "$launcher_pid"; done
-  wait "$launcher_pid"
-  rc=$?
-  launcher_pid=
-  # a Ctrl-C reaches mpirun from the terminal too, and it may then report 1
-  if [ -n "$stop" ] && [ "$rc" -ne 0 ]; then rc=75; fi
+  run_stoppable "${cmd[@]}"
   case "$rc" in
     0) ;;
     75) stop=${stop:-ranks}; echo "run-study.sh: ${names[$i]} stopped early (exit 75)" >&2 ;;
