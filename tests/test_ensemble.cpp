@@ -32,7 +32,7 @@ const std::string kFast =
 
 // Longer replicates (~0.3 s) for the tests that interrupt a running ensemble.
 const std::string kSlow =
-    " --set init.spheres=60 --set init.linkers=60 --set geometry.box_length=25 --set run.t_max=80";
+    " --set init.spheres=60 --set init.linkers=60 --set geometry.box_length=25 --set run.t_max=250";
 
 struct Cmd {
   int status;

@@ -11,6 +11,9 @@
 
 #include <array>
 #include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <string>
 
 namespace ringsim {
 
@@ -49,5 +52,20 @@ struct ReplicateRecord {
   std::int64_t mser_truncation = -1;  // index into the N_t series when steady_state, else -1
   double packing_fraction = 0.0, mixing = 0.0;
 };
+
+// A row with only its identity, status and termination set (observables
+// zero, S4 NaN, padding zero): a pending row, or a replicate that failed
+// before producing observables.
+inline ReplicateRecord blank_record(std::uint64_t id, std::uint64_t seed, RecordStatus status,
+                                    const char* termination, const std::string& error = "") {
+  ReplicateRecord r{};
+  r.id = id;
+  r.seed = seed;
+  r.status = static_cast<std::int8_t>(status);
+  std::snprintf(r.termination, sizeof r.termination, "%s", termination);
+  std::snprintf(r.error, sizeof r.error, "%s", error.c_str());
+  r.S4 = std::numeric_limits<double>::quiet_NaN();
+  return r;
+}
 
 }  // namespace ringsim

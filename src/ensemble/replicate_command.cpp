@@ -147,15 +147,13 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
 }
 
 ReplicateRecord to_record(const nlohmann::json& j) {
-  ReplicateRecord r{};
-  r.id = j.at("replicate").get<std::uint64_t>();
-  r.seed = j.at("seed").get<std::uint64_t>();
   const std::string term = j.at("termination").get<std::string>();
-  std::snprintf(r.termination, sizeof r.termination, "%s", term.c_str());
   const bool ok = term == "steady_state" || term == "t_max" || term == "no_bond_possible";
-  r.status = static_cast<std::int8_t>(ok ? RecordStatus::Ok : RecordStatus::Failed);
-  if (j.contains("error")) std::snprintf(r.error, sizeof r.error, "%s", j["error"].get<std::string>().c_str());
-  else if (term == "event_budget") std::snprintf(r.error, sizeof r.error, "%s", "event budget run.max_events exhausted");
+  const std::string error = j.contains("error")       ? j["error"].get<std::string>()
+                            : term == "event_budget" ? "event budget run.max_events exhausted"
+                                                     : "";
+  ReplicateRecord r = blank_record(j.at("replicate").get<std::uint64_t>(), j.at("seed").get<std::uint64_t>(),
+                                   ok ? RecordStatus::Ok : RecordStatus::Failed, term.c_str(), error);
   r.t_end = j.at("t_end").get<double>();
   r.events = j.at("events").get<std::uint64_t>();
   r.wall_seconds = j.at("wall_seconds").get<double>();

@@ -95,6 +95,25 @@ int broadcast(int v) {
   return v;
 }
 
+// Runs `step` on rank 0 only; every rank gets the same status back: 0 to go
+// on, else `code` (rank 0 has printed prefix + the message).
+template <class Step>
+int on_rank0(bool root, int code, const char* prefix, std::ostream& err, Step&& step) {
+  int status = 0;
+  std::string message;
+  if (root) {
+    try {
+      step();
+    } catch (const std::exception& e) {
+      message = e.what();
+      status = code;
+    }
+  }
+  status = broadcast(status);
+  if (status != 0 && root) err << prefix << message << '\n';
+  return status;
+}
+
 std::string scenario_label(const Scenario& sc, const std::string& path) {
   if (!sc.name.empty()) return sc.name;
   if (!path.empty()) return std::filesystem::path(path).stem().string();
@@ -238,17 +257,6 @@ Prepared prepare_output(const RunOptions& opt, const Provenance& fresh, std::ost
   return p;
 }
 
-ReplicateRecord failed_record(std::uint64_t id, std::uint64_t seed, const std::string& what) {
-  ReplicateRecord r{};
-  r.id = id;
-  r.seed = seed;
-  r.status = static_cast<std::int8_t>(RecordStatus::Failed);
-  std::snprintf(r.termination, sizeof r.termination, "%s", "error");
-  std::snprintf(r.error, sizeof r.error, "%s", what.c_str());
-  r.S4 = std::numeric_limits<double>::quiet_NaN();
-  return r;
-}
-
 }  // namespace
 
 void add_run_command(CLI::App& app, RunOptions& opt) {
@@ -303,21 +311,10 @@ int run_main(const RunOptions& opt, std::ostream& out, std::ostream& err) {
   // The scenario: rank 0 reads the file, every rank parses the same text and
   // fails the same way on bad input (rank 0 reports it).
   std::string text;
-  int status = 0;
-  std::string message;
-  if (root && !opt.scenario.empty()) {
-    try {
-      text = read_scenario_text(opt.scenario);
-    } catch (const ConfigError& e) {
-      message = e.what();
-      status = 1;
-    }
-  }
-  status = broadcast(status);
-  if (status != 0) {
-    if (root) err << "ringsim: configuration error: " << message << '\n';
+  if (const int status = on_rank0(root, 1, "ringsim: configuration error: ", err, [&] {
+        if (!opt.scenario.empty()) text = read_scenario_text(opt.scenario);
+      }))
     return status;
-  }
   broadcast(text);
   Scenario scenario;
   try {
@@ -346,19 +343,8 @@ int run_main(const RunOptions& opt, std::ostream& out, std::ostream& err) {
   fresh.series_length = static_cast<std::int64_t>(L);
 
   Prepared prep;
-  if (root) {
-    try {
-      prep = prepare_output(opt, fresh, err);
-    } catch (const std::exception& e) {
-      message = e.what();
-      status = 3;
-    }
-  }
-  status = broadcast(status);
-  if (status != 0) {
-    if (root) err << "ringsim run: " << message << '\n';
+  if (const int status = on_rank0(root, 3, "ringsim run: ", err, [&] { prep = prepare_output(opt, fresh, err); }))
     return status;
-  }
 
   const ComputeFn compute = [&](std::uint64_t id, const std::atomic<bool>& stop) {
     ReplicateOutput o;
@@ -371,7 +357,7 @@ int run_main(const RunOptions& opt, std::ostream& out, std::ostream& err) {
       }
       o.record = to_record(j);
     } catch (const std::exception& e) {
-      o.record = failed_record(id, opt.seed, e.what());  // e.g. a scene that cannot be placed
+      o.record = blank_record(id, opt.seed, RecordStatus::Failed, "error", e.what());  // e.g. a scene that cannot be placed
     }
     if (L) {
       o.series.assign(L, std::numeric_limits<float>::quiet_NaN());

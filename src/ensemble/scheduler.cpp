@@ -244,15 +244,11 @@ ScheduleEnd run_coordinator(MPI_Comm comm, const std::vector<std::uint64_t>& ids
       const std::vector<char> buf = recv_bytes(comm, st);
       if (std::optional<ReplicateOutput> r = unpack(buf, L)) deliver(*r);
       if (st.MPI_TAG == kRequest) {
+        // Only Active workers get an answer: drain() has sent the others Stop.
         if (state[w] == State::Active) {
           const std::int64_t id = next_id();
-          if (id < 0 && !draining) state[w] = State::Finishing;
-          if (id < 0 && draining) {
-            MPI_Send(nullptr, 0, MPI_BYTE, w, kStop, comm);
-            state[w] = State::Stopping;
-          } else {
-            MPI_Send(&id, 1, MPI_INT64_T, w, kAssign, comm);
-          }
+          if (id < 0) state[w] = State::Finishing;
+          MPI_Send(&id, 1, MPI_INT64_T, w, kAssign, comm);
         }
       } else if (st.MPI_TAG == kBye) {
         state[w] = State::Done;
