@@ -139,6 +139,8 @@ TEST(RigidMerge, ConservesMomentumAndAngularMomentumAndNeverGainsEnergy) {
     b.offset.assign(4, Vec3::Zero());
     b.body_axis.assign(4, Vec3::UnitZ());
     b.reach.assign(4, 0.0);
+    b.cgroup.assign(4, -1);
+    b.track.assign(4, Track{});
     const Box box{40.0, false};
     const MechanicalTotals before = mechanical_totals(b, 0.3);
     merge_groups(b, box, 0, 2, 0.3);

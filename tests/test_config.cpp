@@ -409,12 +409,22 @@ TEST(Config, CompliantKeys) {
   EXPECT_EQ(p.compliant.target_gap, 0.05);
   EXPECT_CONTAINS(error_of("", {"compliant.c=-1"}), "--set: compliant.c = -1: must be >= 0");
   EXPECT_CONTAINS(error_of("", {"compliant.target_gap=-0.1"}), "compliant.target_gap = -0.1: must be >= 0");
-  EXPECT_CONTAINS(error_of("[compliant]\nk = 1000\nc = 100"),
-                  "test.toml:2:5: compliant.k = 1000: compliant bonds are not yet coupled to the event loop");
-  EXPECT_CONTAINS(error_of("", {"compliant.k_omega=1000"}),
-                  "--set: compliant.k_omega = 1000: compliant bonds are not yet coupled to the event loop");
+  // Compliant bonds run; the integrator keys are checked.
+  const SimParams c = load_config("[compliant]\nk = 1000\nc = 100\nmethod = \"bdf\"\nslice = 0.02", {}, "c.toml");
+  EXPECT_TRUE(c.compliant.enabled());
+  EXPECT_EQ(c.compliant.method, CompliantMethod::Bdf);
+  EXPECT_EQ(c.compliant.slice, 0.02);
+  EXPECT_CONTAINS(error_of("", {"compliant.method=rk4"}), "compliant.method");
+  EXPECT_CONTAINS(error_of("", {"compliant.slice=0"}), "compliant.slice = 0: must be in [1e-04, 10]");
+  EXPECT_CONTAINS(error_of("", {"compliant.rtol=1"}), "compliant.rtol = 1");
+  EXPECT_CONTAINS(error_of("", {"compliant.relax_energy=-1"}), "compliant.relax_energy = -1: must be >= 0");
+  // Smooth spheres only: a compliant cluster keeps a sphere's spin constant.
+  EXPECT_CONTAINS(error_of("[compliant]\nk = 1000\n[contact]\nstatic_friction_sphere = 0.5\ndynamic_friction_sphere = 0.3"),
+                  "contact.static_friction_sphere = 0.5: must be 0 with compliant bonds");
   SimParams q;
   q.compliant.k = 1.0;
+  q.contact.static_friction_sphere = 0.2;
+  q.contact.dynamic_friction_sphere = 0.1;
   EXPECT_THROW(validate(q), ConfigError);
 }
 
@@ -670,7 +680,7 @@ TEST(Config, ScenarioRoundTripWithEscapedStrings) {
 
 TEST(Config, KeyInfoTable) {
   const auto& keys = config_keys();
-  ASSERT_EQ(keys.size(), 51u);
+  ASSERT_EQ(keys.size(), 57u);
   for (const KeyInfo& k : keys) {
     EXPECT_FALSE(k.type.empty()) << k.name;
     EXPECT_FALSE(k.default_value.empty()) << k.name;
@@ -695,10 +705,12 @@ TEST(Config, ScenarioFilesMatchModelTable) {
     bool coplanarity_filter;
     int bodies;  // N_S = N_L
     int deviations;  // keys the file must set
+    bool compliant = false;  // Scenario 5: k = k_omega = 1000, c = c_omega = 100
   };
   const std::vector<Row> rows = {
       {"1-baseline", false, false, 300, 2},      {"2-bond-angle", true, false, 300, 1},
       {"3-coplanarity", false, true, 300, 1},    {"4-passive-selection", true, true, 300, 0},
+      {"5-compliant", true, true, 300, 4, true},
       {"6-1-low-density", true, true, 150, 2},   {"6-3-high-density", true, true, 600, 2},
   };
   const std::filesystem::path dir = std::filesystem::path(RINGSIM_SOURCE_DIR) / "jobs" / "scenarios";
@@ -726,6 +738,10 @@ TEST(Config, ScenarioFilesMatchModelTable) {
     want.bonding.coplanarity_filter = r.coplanarity_filter;
     want.init.spheres = r.bodies;
     want.init.linkers = r.bodies;
+    if (r.compliant) {
+      want.compliant.k = want.compliant.k_omega = 1000.0;
+      want.compliant.c = want.compliant.c_omega = 100.0;
+    }
     expect_same(s.params, want);
     EXPECT_TRUE(s.params.bonding.enabled);
     EXPECT_EQ(s.params.bonding.theta0_deg, 90.0);

@@ -100,6 +100,29 @@ struct Cluster {
   }
 };
 
+// A compliant-cluster member's motion over its group's current slice
+// [ta, tb] (core/compliant_group.hpp): the cubic Hermite interpolant of the
+// integrator's states at both ends, for the centre and for the axis (a linker;
+// normalized when evaluated). This polynomial *is* the member's trajectory for
+// the event loop; positions and velocities are continuous across slices.
+// Bounds over the slice (derivations in core/compliant_group.cpp):
+//  - dev: |x(t) - (xa + vbar (t - ta))| <= dev (the chord is the reference
+//    point of core/pose.hpp);
+//  - center_speed: |x'(t) - vbar| <= center_speed;
+//  - axis_rate: |d axis / dt| <= axis_rate;
+//  - center_accel, axis_accel: second-order bounds for certified steps.
+struct Track {
+  double ta = 0.0, tb = 0.0;
+  Vec3 xa = Vec3::Zero(), va = Vec3::Zero(), xb = Vec3::Zero(), vb = Vec3::Zero(), vbar = Vec3::Zero();
+  Vec3 ua = Vec3::UnitZ(), wa = Vec3::Zero(), ub = Vec3::UnitZ(), wb = Vec3::Zero(), ubar = Vec3::Zero();
+  double spin_a = 0.0, spin_b = 0.0;  // angular velocity along the axis at ta, tb
+  Vec3 sphere_omega = Vec3::Zero();   // a sphere's constant angular velocity (smooth: never changes)
+  double dev = 0.0, center_speed = 0.0, axis_rate = 0.0;
+  // Second-order bounds: |x''(t)| <= center_accel; the axis' turning,
+  // |d/dt (axis x axis')| + |axis'|^2 <= axis_accel (core/compliant_group.cpp).
+  double center_accel = 0.0, axis_accel = 0.0;
+};
+
 struct BodyStore {
   std::vector<Kinematics> kin;
   std::vector<Shape> shape;
@@ -118,6 +141,10 @@ struct BodyStore {
   std::vector<Vec3> body_axis;
   std::vector<double> reach;
   std::vector<Cluster> clusters;
+  // Compliant clusters: cgroup[i] is body i's compliant group (-1: none; then
+  // group[i] says free or rigid), track[i] its motion over the current slice.
+  std::vector<int> cgroup;
+  std::vector<Track> track;
 
   int size() const { return static_cast<int>(kin.size()); }
   const Species& sp(int i) const { return species[static_cast<int>(shape[i])]; }

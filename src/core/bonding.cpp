@@ -74,6 +74,10 @@ bool Simulation::rules_allow(int s, int l, int end, double t) {
 }
 
 void Simulation::form_bond(int s, int l, int end, double t) {
+  if (compliant_) {
+    form_compliant_bond(s, l, end, t);
+    return;
+  }
   graph_.add_bond(s, l, end, t);
   ++stats_.bonds;
   const int gs = bodies_.group[s], gl = bodies_.group[l];
@@ -130,12 +134,11 @@ void Simulation::process_capture(int i, const Event& ev, double t) {
   const int l = bodies_.shape[i] == Shape::Linker ? i : j, s = l == i ? j : i;
   ++stats_.captures;
   if (rules_allow(s, l, ev.dim, t)) {
-    for (int b : {s, l}) {
-      if (bodies_.group[b] < 0) advance(bodies_.kin[b], t);
-      else rebase_cluster(bodies_.clusters[bodies_.group[b]], box_, t);
-    }
+    touch(s, t);
+    touch(l, t);
     form_bond(s, l, ev.dim, t);
     bump(l, t);  // l and s now share a cluster: every member
+    if (termination_ == Termination::Error) return;
     predict_group(l, t);
     if (!bond_possible()) termination_ = Termination::NoBondPossible;
   } else {
@@ -171,8 +174,11 @@ bool Simulation::bond_possible() const {
   // Groups are keyed by cluster id, free bodies by -1 - id.
   int first_group = 0;
   bool seen = false, spread = false, any_sphere = false, any_end = false;
+  // Compliant bonds: a cluster can close a ring inside itself (its bodies
+  // move relative to each other; a relaxed one wakes when disturbed), so
+  // every body counts as its own group.
   auto note = [&](int b) {
-    const int key = bodies_.group[b] >= 0 ? bodies_.group[b] : -1 - b;
+    const int key = bodies_.group[b] >= 0 && !compliant_ ? bodies_.group[b] : -1 - b;
     if (!seen) first_group = key, seen = true;
     else if (key != first_group) spread = true;
   };

@@ -150,9 +150,22 @@ MechanicalTotals mechanical_totals(const BodyStore& b, double t) {
   MechanicalTotals r;
   for (int i = 0; i < b.size(); ++i) {
     if (b.group[i] >= 0) continue;
+    const Species& s = b.sp(i);
+    if (b.cgroup[i] >= 0) {
+      // A compliant member: its own motion on its slice's track.
+      const Vec3 x = body_center(b, i, t), v = track_velocity(b.track[i], t), w = body_omega(b, i, t);
+      const Vec3 p = s.mass * v;
+      const Vec3 own = s.shape == Shape::Sphere ? Vec3(s.i_perp * w) : Vec3(body_inertia(s, body_axis(b, i, t)) * w);
+      r.momentum += p;
+      r.angular_momentum += x.cross(p) + own;
+      r.translational += 0.5 * s.mass * v.squaredNorm();
+      r.rotational += 0.5 * w.dot(own);
+      r.p_scale += p.norm();
+      r.l_scale += x.norm() * p.norm() + own.norm();
+      continue;
+    }
     Kinematics k = b.kin[i];
     advance(k, t);
-    const Species& s = b.sp(i);
     const Vec3 p = s.mass * k.v;
     const Vec3 own = angular_momentum(k, s);
     r.momentum += p;
@@ -180,6 +193,17 @@ MechanicalTotals mechanical_totals(const BodyStore& b, double t) {
 
 void snapshot_members(BodyStore& b, const Box& box, double t) {
   for (int i = 0; i < b.size(); ++i) {
+    if (b.cgroup[i] >= 0) {
+      const Vec3 x = body_center(b, i, t);
+      Kinematics& k = b.kin[i];
+      k.v = track_velocity(b.track[i], t);
+      k.x = wrap_into(x, box);
+      k.axis = body_axis(b, i, t);
+      k.precession = body_omega(b, i, t);
+      k.spin = 0.0;
+      k.t = t;
+      continue;
+    }
     if (b.group[i] < 0) continue;
     const Cluster& c = b.clusters[b.group[i]];
     const Vec3 x = body_center(b, i, t);

@@ -505,6 +505,10 @@ double ClusterIntegrator::time() const { return impl_->t; }
 const CompliantCluster& ClusterIntegrator::state() const { return impl_->cluster; }
 CompliantCluster& ClusterIntegrator::mutable_state() { return impl_->cluster; }
 void ClusterIntegrator::reinit() { impl_->restart(); }
+void ClusterIntegrator::reinit_at(double t) {
+  impl_->t = t;
+  impl_->restart();
+}
 const IntegratorStats& ClusterIntegrator::stats() const { return impl_->stats; }
 const IntegratorOptions& ClusterIntegrator::options() const { return impl_->options; }
 int ClusterIntegrator::state_size() const { return impl_->n; }

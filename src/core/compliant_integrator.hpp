@@ -120,6 +120,10 @@ class ClusterIntegrator {
   // For an impulse: change velocities (or positions) here, then reinit().
   CompliantCluster& mutable_state();
   void reinit();
+  // The state in mutable_state() now stands at time t (before or after
+  // time()): restart the method there (an impulse at an earlier time, read
+  // from an interpolant).
+  void reinit_at(double t);
 
   const IntegratorStats& stats() const;
   const IntegratorOptions& options() const;

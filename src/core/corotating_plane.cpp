@@ -8,8 +8,8 @@
 namespace ringsim {
 
 CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const Kinematics& y, const Species& sy,
-                                 const Vec3& n0, const Vec3& dx, double t0)
-    : n0_(n0), dx0_(dx), dv_(y.v - x.v), t0_(t0) {
+                                 const Vec3& n0, const Vec3& dx, double t0, const Remainder& rem)
+    : n0_(n0), dx0_(dx), dv_(y.v - x.v), t0_(t0), rem_(rem), bx_(sx.bounding_radius), by_(sy.bounding_radius) {
   // A sphere's rotation does not move its shape: its plane does not turn.
   wx_ = sx.shape == Shape::Linker ? x.precession : Vec3::Zero();
   wy_ = sy.shape == Shape::Linker ? y.precession : Vec3::Zero();
@@ -82,14 +82,17 @@ double CorotatingPlane::advance(double t, double end, double target, double stop
     for (double h = h_max; h > 1e-6 * h_max; h *= 0.25) {
       double g_min = 1.0;
       bool both_branches = false;
-      if (!y_is_sphere_ && W > 0.0) {
-        g_min = st.g - W * h;
+      const double Wh = W + (rem_.a_x + rem_.a_y) * h;  // bound on the true |c'| over the step
+      if (!y_is_sphere_ && Wh > 0.0) {
+        g_min = st.g - Wh * h;
+        if (g_min <= 0.0) continue;  // may reach Y's face-on kink: a shorter step
         // The two smooth branches of a|c|: the sign of c at t, and the other
         // one too if c may reach 0 within the step (the support's kink).
-        both_branches = std::abs(st.c) <= W * h;
+        both_branches = std::abs(st.c) <= Wh * h;
       }
       double M = wx_norm_ * wx_norm_ * (st.dx_norm + dv_norm_ * h) + 2.0 * wx_norm_ * dv_norm_;
       if (!y_is_sphere_) M += (ay_ + ry_ * (1.0 / (g_min * g_min * g_min) + 1.0 / g_min)) * W * W;
+      M += rem_.c_x + rem_.c_y + 2.0 * rem_.a_x * (st.dx_norm + dv_norm_ * h + bx_ + by_) + 2.0 * rem_.a_y * by_;
       auto first_root = [&](double s0, double rate) {
         // First root of (s0 - target) + rate h - M h^2 / 2 (s0 > target).
         const double d = s0 - target;

@@ -19,18 +19,37 @@
 // a certified step that converges like Newton's method near a transversal
 // contact. Where a kink may lie inside a step the step is not taken (the
 // caller falls back to the fixed plane).
+//
+// Bodies that are not free (compliant members) are handed in as their
+// first-order motion at t0 (centre velocity, the axis' turning rate as the
+// precession), exact in value and first derivative; their true motion departs
+// from it within second-order bounds (Remainder), which add to M:
+//     c_x + c_y + 2 a_x (|dx| + r_x' + r_y') + 2 a_y r_y'
+// (centre accelerations c; a >= |Omega'| + |Omega|^2 of each body's turning;
+// r' the bodies' bounding radii): a direction turned by the true rotation
+// and by the frozen one differ by at most 2 a h^2 / 2 (both second
+// derivatives are bounded by a), which moves the plane's normal and each
+// support; |c'| grows to at most |W| + (a_x + a_y) h over a step.
 
 #include "core/body.hpp"
 #include "core/vec.hpp"
 
 namespace ringsim {
 
+// Second-order departure of the bodies' true motion from the first-order one
+// handed in (zero for free bodies).
+struct CorotatingRemainder {
+  double c_x = 0.0, c_y = 0.0;  // centre acceleration bounds
+  double a_x = 0.0, a_y = 0.0;  // turning-acceleration bounds
+};
+
 class CorotatingPlane {
  public:
   // X carries the contact face/side, Y is the other body; n0 is the unit
   // direction from X towards Y at t0; dx = x_Y - x_X at t0 (minimum image).
+  using Remainder = CorotatingRemainder;
   CorotatingPlane(const Kinematics& x, const Species& sx, const Kinematics& y, const Species& sy, const Vec3& n0,
-                  const Vec3& dx, double t0);
+                  const Vec3& dx, double t0, const Remainder& rem = {});
 
   double at(double t) const;
   // Advance from t while the quadratic bound certifies s > target; return the
@@ -53,6 +72,8 @@ class CorotatingPlane {
   double ay_, ry_;          // Y's half length and radius (sphere: 0, radius)
   bool y_is_sphere_;
   double wx_norm_, wy_norm_, dv_norm_;
+  Remainder rem_;
+  double bx_, by_;          // bounding radii
 };
 
 }  // namespace ringsim

@@ -47,4 +47,14 @@ const char* to_string(CoplanarityMode m) {
   return "?";
 }
 
+const char* to_string(CompliantMethod m) {
+  switch (m) {
+    case CompliantMethod::Auto: return "auto";
+    case CompliantMethod::Bdf: return "bdf";
+    case CompliantMethod::Adams: return "adams";
+    case CompliantMethod::Erk: return "erk";
+  }
+  return "?";
+}
+
 }  // namespace ringsim

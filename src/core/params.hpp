@@ -19,6 +19,8 @@ enum class QueueKind { Fast, Reference };
 // Which dihedrals the coplanarity filter accepts (MODEL.md, capture rule 3):
 // CisOrTrans, deviation min(|phi|, 180 - |phi|) (the Decision); Cis, |phi|.
 enum class CoplanarityMode { CisOrTrans, Cis };
+// Integrator of compliant clusters (docs/COMPLIANT.md, stability study).
+enum class CompliantMethod { Auto, Bdf, Adams, Erk };
 
 struct GeometryParams {
   double sphere_radius = 1.0;
@@ -82,6 +84,16 @@ struct CompliantParams {
   double k_omega = 0.0;     // angle and dihedral springs (on the deviation in radians)
   double c_omega = 0.0;     // angle and dihedral dampers (on the rate in rad/time)
   double target_gap = 0.0;  // target gap between the sphere surface and the end face
+  // Integration inside the event loop (core/compliant_group.hpp).
+  CompliantMethod method = CompliantMethod::Auto;  // Auto: ERK up to k, k_omega = 1e4, BDF above
+  double rtol = 1e-6;
+  double atol = 1e-8;
+  double slice = 0.05;  // longest slice integrated ahead of the event loop (time)
+  // Relaxed-cluster switch: a cluster whose internal kinetic energy stayed
+  // at or below relax_energy for relax_time is carried as a rigid body until
+  // a contact or a bond disturbs it; relax_energy = 0 never switches.
+  double relax_energy = 1e-4;
+  double relax_time = 2.0;
   bool enabled() const { return k > 0.0 || k_omega > 0.0; }
 };
 
@@ -121,5 +133,6 @@ const char* to_string(CombineRule r);
 const char* to_string(VelocityInit v);
 const char* to_string(QueueKind q);
 const char* to_string(CoplanarityMode m);
+const char* to_string(CompliantMethod m);
 
 }  // namespace ringsim

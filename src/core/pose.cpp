@@ -5,6 +5,7 @@
 namespace ringsim {
 
 Vec3 body_omega(const BodyStore& b, int i, double t) {
+  if (b.cgroup[i] >= 0) return b.shape[i] == Shape::Sphere ? b.track[i].sphere_omega : track_omega(b.track[i], t);
   const int g = b.group[i];
   if (g < 0) return omega_at(b.kin[i], t);
   const Cluster& c = b.clusters[g];
@@ -12,6 +13,7 @@ Vec3 body_omega(const BodyStore& b, int i, double t) {
 }
 
 Vec3 shape_point_velocity(const BodyStore& b, int i, double t, const Vec3& p, const Vec3& center) {
+  if (b.cgroup[i] >= 0) return track_shape_velocity(b.track[i], t, p, center);
   const int g = b.group[i];
   if (g < 0) return b.kin[i].v + b.kin[i].precession.cross(p - center);
   const Cluster& c = b.clusters[g];
@@ -19,6 +21,7 @@ Vec3 shape_point_velocity(const BodyStore& b, int i, double t, const Vec3& p, co
 }
 
 Vec3 material_point_velocity(const BodyStore& b, int i, double t, const Vec3& p, const Vec3& center) {
+  if (b.cgroup[i] >= 0) return track_velocity(b.track[i], t) + body_omega(b, i, t).cross(p - center);
   if (b.group[i] >= 0) return shape_point_velocity(b, i, t, p, center);
   return b.kin[i].v + omega_at(b.kin[i], t).cross(p - center);
 }
@@ -26,17 +29,31 @@ Vec3 material_point_velocity(const BodyStore& b, int i, double t, const Vec3& p,
 double rotation_bound(const BodyStore& b, int i) {
   const int g = b.group[i];
   const Species& s = b.sp(i);
+  if (b.cgroup[i] >= 0) {
+    // The centre strays from the chord at most at center_speed; the solid
+    // turns with its axis, no point farther than bounding_radius from the centre.
+    const Track& k = b.track[i];
+    return k.center_speed + (s.shape == Shape::Sphere ? 0.0 : k.axis_rate * s.bounding_radius);
+  }
   if (g < 0) return shape_rotation_speed(b.kin[i], s);
   return b.clusters[g].max_rate * (b.reach[i] + (s.shape == Shape::Sphere ? 0.0 : s.bounding_radius));
 }
 
 double point_rotation_bound(const BodyStore& b, int i, double arm) {
+  if (b.cgroup[i] >= 0) return b.track[i].center_speed + (b.shape[i] == Shape::Sphere ? 0.0 : b.track[i].axis_rate * arm);
   const int g = b.group[i];
   if (g < 0) return b.shape[i] == Shape::Sphere ? 0.0 : b.kin[i].precession.norm() * arm;
   return b.clusters[g].max_rate * (b.reach[i] + arm);
 }
 
 LocalMotion local_motion(const BodyStore& b, int i, double s) {
+  if (b.cgroup[i] >= 0) {
+    if (b.shape[i] == Shape::Sphere) return {Vec3::Zero(), 0.0};
+    const Track& k = b.track[i];
+    const Vec3 w = track_omega(k, s);
+    const Vec3 u = track_axis(k, s);
+    return {w - w.dot(u) * u, k.axis_accel};  // the spin does not move the shape
+  }
   const int g = b.group[i];
   if (g < 0) {
     if (b.shape[i] == Shape::Sphere) return {Vec3::Zero(), 0.0};
@@ -70,7 +87,7 @@ double moving_mass(const BodyStore& b, int i) {
 
 Mat3 moving_inverse_inertia(const BodyStore& b, int i, double t) {
   const int g = b.group[i];
-  if (g < 0) return inverse_inertia(b.sp(i), axis_at(b.kin[i], t));
+  if (g < 0) return inverse_inertia(b.sp(i), body_axis(b, i, t));  // free or compliant: the body alone
   const Cluster& c = b.clusters[g];
   const Mat3& R = c.orientation_at(t);
   return R * c.moments.cwiseInverse().asDiagonal() * R.transpose();

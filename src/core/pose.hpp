@@ -12,16 +12,28 @@
 // distances (a sphere member: its centre; a linker: the whole solid). These
 // bounds are what conservative advancement steps with.
 
+#include <limits>
+
 #include "core/body.hpp"
 #include "core/geometry.hpp"
 #include "core/motion.hpp"
+#include "core/track.hpp"
 
 namespace ringsim {
 
-inline bool in_cluster(const BodyStore& b, int i) { return b.group[i] >= 0; }
+// A member of a rigid or a compliant cluster (its motion is not its own Kinematics).
+inline bool in_cluster(const BodyStore& b, int i) { return b.group[i] >= 0 || b.cgroup[i] >= 0; }
+inline bool is_compliant(const BodyStore& b, int i) { return b.cgroup[i] >= 0; }
+// The end of the interval over which body i's present motion is known: a
+// compliant member's slice end; never for the others. Every search involving
+// the body stops there (the next slice bumps and re-predicts the member).
+inline double motion_horizon(const BodyStore& b, int i) {
+  return b.cgroup[i] >= 0 ? b.track[i].tb : std::numeric_limits<double>::infinity();
+}
 
 // Centre at t (cluster members: not wrapped into a periodic box).
 inline Vec3 body_center(const BodyStore& b, int i, double t) {
+  if (b.cgroup[i] >= 0) return track_center(b.track[i], t);
   const int g = b.group[i];
   if (g < 0) return position_at(b.kin[i], t);
   const Cluster& c = b.clusters[g];
@@ -29,6 +41,7 @@ inline Vec3 body_center(const BodyStore& b, int i, double t) {
 }
 
 inline Vec3 body_axis(const BodyStore& b, int i, double t) {
+  if (b.cgroup[i] >= 0) return b.shape[i] == Shape::Sphere ? Vec3(Vec3::UnitZ()) : track_axis(b.track[i], t);
   const int g = b.group[i];
   if (g < 0) return axis_at(b.kin[i], t);
   return b.clusters[g].orientation_at(t) * b.body_axis[i];
@@ -45,19 +58,26 @@ Vec3 shape_point_velocity(const BodyStore& b, int i, double t, const Vec3& p, co
 Vec3 material_point_velocity(const BodyStore& b, int i, double t, const Vec3& p, const Vec3& center);
 
 inline Vec3 reference_center(const BodyStore& b, int i, double t) {
+  if (b.cgroup[i] >= 0) {
+    const Track& k = b.track[i];
+    return k.xa + k.vbar * (t - k.ta);
+  }
   const int g = b.group[i];
   if (g < 0) return position_at(b.kin[i], t);
   const Cluster& c = b.clusters[g];
   return c.x + c.v * (t - c.t);
 }
 inline const Vec3& reference_velocity(const BodyStore& b, int i) {
+  if (b.cgroup[i] >= 0) return b.track[i].vbar;
   const int g = b.group[i];
   return g < 0 ? b.kin[i].v : b.clusters[g].v;
 }
 // Radius about the reference point containing the solid at all times.
-inline double reference_radius(const BodyStore& b, int i) {
-  return b.sp(i).bounding_radius + (b.group[i] < 0 ? 0.0 : b.reach[i]);
+inline double reference_offset(const BodyStore& b, int i) {
+  if (b.cgroup[i] >= 0) return b.track[i].dev;
+  return b.group[i] < 0 ? 0.0 : b.reach[i];
 }
+inline double reference_radius(const BodyStore& b, int i) { return b.sp(i).bounding_radius + reference_offset(b, i); }
 // Largest speed, relative to the reference point, of any point of the solid
 // that can change a distance to this body (a sphere: its centre only).
 double rotation_bound(const BodyStore& b, int i);
@@ -75,11 +95,26 @@ double point_rotation_bound(const BodyStore& b, int i, double arm);
 //   |e| <= accel |r(s)| tau^2 / 2,  accel >= max_t (|omega'(t)| + |omega(t)|^2),
 // with v = reference_velocity. Free sphere: omega = 0, accel = 0 (its ball
 // never changes); free linker: omega = Omega, constant (core/motion.hpp).
+// Compliant member: about its own centre (RefMotion below).
 struct LocalMotion {
   Vec3 omega;    // angular velocity of the solid at s (world)
   double accel;  // bound on |r''| / |r| for all times
 };
 LocalMotion local_motion(const BodyStore& b, int i, double s);
+// The reference point of certified steps (LocalMotion): centre + offset,
+// moving at v within accel tau^2 / 2. Free bodies and rigid clusters: the
+// linear reference motion above (accel 0). Compliant members: their own
+// centre with its velocity and the track's acceleration bound; their solid
+// turns about it with the axis (LocalMotion: omega = axis x axis').
+struct RefMotion {
+  Vec3 offset;
+  Vec3 v;
+  double accel;
+};
+inline RefMotion ref_motion(const BodyStore& b, int i, double s) {
+  if (b.cgroup[i] >= 0) return {Vec3::Zero(), track_velocity(b.track[i], s), b.track[i].center_accel};
+  return {reference_center(b, i, s) - body_center(b, i, s), reference_velocity(b, i), 0.0};
+}
 
 geom::Cylinder body_cylinder(const BodyStore& b, int i, double t);
 

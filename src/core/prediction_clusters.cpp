@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/corotating_plane.hpp"
+#include "core/motion.hpp"
 #include "core/pose.hpp"
 #include "core/prediction.hpp"
 #include "core/prediction_windows.hpp"
@@ -23,6 +25,7 @@ bool Predictor::wall_window(double x, double v, int dir, double reach, double t,
 }
 
 double Predictor::advance_generic(int i, int j, double t, double limit) {
+  limit = std::min({limit, motion_horizon(b_, i), motion_horizon(b_, j)});
   const Vec3 dx = box_.min_image(reference_center(b_, j, t) - reference_center(b_, i, t));
   const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
   double enter, leave;
@@ -46,10 +49,50 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
     }
     const double target = 0.5 * std::min(d, delta_);
     double proven = d;
-    if (!g.certified) {
+    Vec3 normal = g.sep.normal;
+    if (!g.certified || d < 1e3 * delta_) {
       // An unproven distance may be too large: step from a separating plane.
+      // Near contact the closest points' normal is ill-conditioned (off by
+      // ~1e-6 at d ~ 1e-9, so its plane sits below zero); the feature normals
+      // are not (rank_normals), and any unit normal's plane is a lower bound.
       const RankedNormals r = rank_normals(i, j, s, g);
-      proven = r.value[r.best];
+      if (!g.certified) proven = r.value[r.best];
+      normal = r.normal[r.best];
+      // A contact on a linker's face or side with no rigid cluster involved: a
+      // plane turning with that linker, as in advance_pair; compliant members
+      // enter as their first-order motion plus its second-order remainder
+      // (one certified step from s: the remainder counts from there).
+      const double stop = 0.75 * std::min(d, delta_);
+      if (b_.group[i] < 0 && b_.group[j] < 0 && r.feature >= 0 && r.value[r.feature] >= r.value[r.best] - 1e-12 &&
+          r.value[r.feature] > stop) {
+        const int x = r.owner[r.feature] == 1 ? i : j;
+        if (b_.shape[x] == Shape::Linker) {
+          const int y = x == i ? j : i;
+          const Vec3 n0 = x == i ? r.normal[r.feature] : Vec3(-r.normal[r.feature]);
+          const Vec3 dxy = x == i ? Vec3(g.center_b - g.center_a) : Vec3(g.center_a - g.center_b);
+          auto first_order = [&](int b, const Vec3& c) {
+            Kinematics k = make_kinematics(c, ref_motion(b_, b, s).v, body_axis(b_, b, s));
+            k.t = s;
+            k.precession = local_motion(b_, b, s).omega;
+            return k;
+          };
+          CorotatingPlane::Remainder rem;
+          auto remainder = [&](int b, double* c, double* a) {
+            if (!is_compliant(b_, b)) return;
+            *c = b_.track[b].center_accel;
+            *a = b_.shape[b] == Shape::Linker ? b_.track[b].axis_accel : 0.0;
+          };
+          remainder(x, &rem.c_x, &rem.a_x);
+          remainder(y, &rem.c_y, &rem.a_y);
+          const Vec3 cx = x == i ? g.center_a : g.center_b, cy = x == i ? g.center_b : g.center_a;
+          const CorotatingPlane cp(first_order(x, cx), b_.sp(x), first_order(y, cy), b_.sp(y), n0, dxy, s, rem);
+          const double reached = cp.advance(s, end, target, stop, &plane_evaluations_, 1);
+          if (reached - s > (d - target) / bound) {
+            s = reached;
+            continue;
+          }
+        }
+      }
     }
     double advance_by = std::max((proven - target) / bound, min_step(bound));
     if (s + advance_by < end) {
@@ -58,12 +101,13 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       // lower bound of d over the step that uses the actual directions of the
       // angular velocities and the signed approach rate n.(v_B - v_A) instead
       // of the largest speed of any point.
-      const Vec3& n = g.sep.normal;
-      const Vec3 ref_a = g.center_a + (reference_center(b_, i, s) - body_center(b_, i, s));
-      const Vec3 ref_b = g.center_b + (reference_center(b_, j, s) - body_center(b_, j, s));
+      // (Compliant members: about their own centres, RefMotion.)
+      const Vec3& n = normal;
+      const RefMotion ma = ref_motion(b_, i, s), mb = ref_motion(b_, j, s);
+      const Vec3 ref_a = g.center_a + ma.offset, ref_b = g.center_b + mb.offset;
       const SweptSupport sa(b_, i, s, n, g.center_a, ref_a), sb(b_, j, s, -n, g.center_b, ref_b);
-      const double gap0 = n.dot(ref_b - ref_a), rate = n.dot(dv);
-      auto lower = [&](double tau) { return gap0 + rate * tau - sa.at(tau) - sb.at(tau); };
+      const double gap0 = n.dot(ref_b - ref_a), rate = n.dot(mb.v - ma.v), q = 0.5 * (ma.accel + mb.accel);
+      auto lower = [&](double tau) { return gap0 + (rate - q * tau) * tau - sa.at(tau) - sb.at(tau); };
       advance_by = std::max(advance_by, concave_reach(lower, target, advance_by, end - s, &plane_evaluations_));
     }
     s += advance_by;
@@ -73,6 +117,7 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
 }
 
 WallHit Predictor::wall_generic(int i, double t, double limit) {
+  limit = std::min(limit, motion_horizon(b_, i));
   const double L = box_.length;
   const Vec3 X = reference_center(b_, i, t);
   const Vec3& V = reference_velocity(b_, i);
@@ -114,10 +159,11 @@ WallHit Predictor::wall_generic(int i, double t, double limit) {
         if (sc + advance_by < end) {
           // The wall is a plane: gap = (L or 0) - (support along n), and the
           // swept support bounds the support over the step (SweptSupport).
-          const Vec3 ref = reference_center(b_, i, sc);
+          const RefMotion rm = ref_motion(b_, i, sc);
+          const Vec3 ref = c + rm.offset;
           const SweptSupport sw(b_, i, sc, n, c, ref);
-          const double gap0 = (dir > 0 ? L : 0.0) - n.dot(ref), rate = -n.dot(V);
-          auto lower = [&](double tau) { return gap0 + rate * tau - sw.at(tau); };
+          const double gap0 = (dir > 0 ? L : 0.0) - n.dot(ref), rate = -n.dot(rm.v), q = 0.5 * rm.accel;
+          auto lower = [&](double tau) { return gap0 + (rate - q * tau) * tau - sw.at(tau); };
           advance_by = std::max(advance_by, concave_reach(lower, target, advance_by, end - sc, &plane_evaluations_));
         }
         sc += advance_by;
@@ -129,6 +175,7 @@ WallHit Predictor::wall_generic(int i, double t, double limit) {
 }
 
 double Predictor::leave_cell(int i, double t, double limit, const Vec3& lo, double w) {
+  limit = std::min(limit, motion_horizon(b_, i));
   const double bound = reference_velocity(b_, i).norm() + point_rotation_bound(b_, i, 0.0);
   if (bound == 0.0) return kNever;
   // Fires once the centre is more than half the slack outside (so a centre
@@ -177,8 +224,9 @@ double Predictor::capture(int l, int end, int s, double t, double limit, double 
   const double rs = b_.sp(s).radius;
   // Window: the end point stays within h (+ reach) of l's reference point, the
   // sphere's centre within its reach of its own.
-  const double rl = in_cluster(b_, l) ? b_.reach[l] + h : h;
-  const double rsph = in_cluster(b_, s) ? b_.reach[s] : 0.0;
+  limit = std::min({limit, motion_horizon(b_, l), motion_horizon(b_, s)});
+  const double rl = reference_offset(b_, l) + h;
+  const double rsph = reference_offset(b_, s);
   const Vec3 dx = box_.min_image(reference_center(b_, s, t) - reference_center(b_, l, t));
   const Vec3 dv = reference_velocity(b_, s) - reference_velocity(b_, l);
   double enter, leave;

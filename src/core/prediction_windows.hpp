@@ -150,6 +150,12 @@ struct PointMotion {
 };
 inline PointMotion point_motion(const BodyStore& b, int i, double s, const Vec3& x, const Vec3& ref) {
   const LocalMotion lm = local_motion(b, i, s);
+  if (is_compliant(b, i)) {
+    // About the member's own centre, which moves within its track's bound.
+    const Vec3 c = body_center(b, i, s);
+    const Track& k = b.track[i];
+    return {track_velocity(k, s) + lm.omega.cross(x - c), 0.5 * (k.center_accel + lm.accel * (x - c).norm())};
+  }
   const Vec3 r = x - ref;
   return {reference_velocity(b, i) + lm.omega.cross(r), 0.5 * lm.accel * r.norm()};
 }

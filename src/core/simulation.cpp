@@ -82,10 +82,17 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   bodies_.body_axis.assign(n, Vec3::UnitZ());
   bodies_.reach.assign(n, 0.0);
   bodies_.clusters.clear();
+  bodies_.cgroup.assign(n, -1);
+  bodies_.track.assign(n, Track{});
+  compliant_ = params_.bonding.enabled && params_.compliant.enabled();
+  cindex_.assign(n, -1);
   memo_.assign(n, {});
   for (int i = 0; i < n; ++i) grid_.insert(i, bodies_.kin[i].x);
   monitor_.set(0.0, graph_.N_t());
   if (params_.bonding.enabled) check_initial_captures();
+  // Compliant clusters formed at t = 0 start their first slice.
+  for (int g = 0; g < static_cast<int>(cgroups_.size()); ++g)
+    if (cgroups_[g].alive && cgroups_[g].pending && termination_ == Termination::Running) begin_slice(g, 0.0);
   queue_->reset(n);
   for (int i = 0; i < n; ++i) predict(i, 0.0);
   if (params_.bonding.enabled && termination_ == Termination::Running && !bond_possible())
@@ -96,10 +103,11 @@ Simulation::~Simulation() = default;
 
 void Simulation::predict(int i, double t) {
   const int gi = bodies_.group[i];
+  const int ci = bodies_.cgroup[i];
   const Vec3 xi = reference_center(bodies_, i, t);
   Event best;
   best.type = EventType::CellCross;
-  if (gi < 0) {
+  if (gi < 0 && ci < 0) {
     const Kinematics& k = bodies_.kin[i];
     const CellGrid::Exit ex = grid_.exit_time(grid_.cell_of_body(i), xi, k.v);
     best.time = t + ex.dt;
@@ -114,9 +122,14 @@ void Simulation::predict(int i, double t) {
     const Vec3 lo(cc[0] * w, cc[1] * w, cc[2] * w);
     const double speed = reference_velocity(bodies_, i).norm() + point_rotation_bound(bodies_, i, 0.0);
     const double horizon = speed > 0.0 ? t + w / speed : kNever;
+    const double slice_end = motion_horizon(bodies_, i);  // compliant: the slice's end
     best.time = std::min(horizon, predictor_.leave_cell(i, t, horizon, lo, w));
     best.dim = -1;
     best.dir = 0;
+    if (slice_end <= best.time) {
+      best.time = slice_end;
+      best.type = EventType::Slice;
+    }
   }
   if (!box_.periodic) {
     const WallHit w = predictor_.wall(i, t, best.time);
@@ -145,8 +158,9 @@ void Simulation::predict(int i, double t) {
   grid_.for_each_near(grid_.cell_of_body(i), [&](int j) {
     if (j == i) return;
     if (gi >= 0 && bodies_.group[j] == gi) return;  // one rigid body: no relative motion
+    if (ci >= 0 && bodies_.cgroup[j] == ci && contact_excluded(i, j)) return;  // bonded neighbours
     if (bonding && sphere_i != (bodies_.shape[j] == Shape::Sphere)) capture_partners_.push_back(j);
-    if (sphere_i && bodies_.shape[j] == Shape::Sphere && gi < 0 && bodies_.group[j] < 0) {
+    if (sphere_i && bodies_.shape[j] == Shape::Sphere && !in_cluster(bodies_, i) && !in_cluster(bodies_, j)) {
       consider(j, predictor_.pair(i, j, t, best.time, xi));
       return;
     }
@@ -224,6 +238,15 @@ double Simulation::memo_pair(int i, int j, double t, double limit, const Vec3& x
 }
 
 void Simulation::bump(int i, double t) {
+  if (const int cg = bodies_.cgroup[i]; cg >= 0) {
+    // A new slice from the changed state (once per event), then every member.
+    if (cgroups_[cg].pending && !begin_slice(cg, t)) return;
+    for (int m : cgroups_[cg].members) {
+      ++bodies_.counter[m];
+      bodies_.last_collision[m] = t;
+    }
+    return;
+  }
   const int g = bodies_.group[i];
   if (g < 0) {
     ++bodies_.counter[i];
@@ -237,6 +260,10 @@ void Simulation::bump(int i, double t) {
 }
 
 void Simulation::predict_group(int i, double t) {
+  if (const int cg = bodies_.cgroup[i]; cg >= 0) {
+    for (int m : cgroups_[cg].members) predict(m, t);
+    return;
+  }
   const int g = bodies_.group[i];
   if (g < 0) {
     predict(i, t);
@@ -246,6 +273,14 @@ void Simulation::predict_group(int i, double t) {
 }
 
 void Simulation::apply_impulse(int i, const Vec3& J, const Vec3& arm) {
+  if (const int cg = bodies_.cgroup[i]; cg >= 0) {
+    // The member alone takes the jump (its own mass and inertia); touch() put
+    // the cluster's state at the event time into the integrator.
+    CompliantBody& cb = cgroups_[cg].integ->mutable_state().bodies[cindex_[i]];
+    cb.v += J / cb.mass;
+    if (cb.shape == Shape::Linker) cb.omega += inverse_inertia(bodies_.sp(i), cb.axis()) * arm.cross(J);
+    return;  // a smooth sphere's arm is parallel to J (its spin stays)
+  }
   const int g = bodies_.group[i];
   if (g >= 0) {
     cluster_impulse(bodies_.clusters[g], box_, now_, J, arm);
@@ -262,16 +297,31 @@ namespace {
 // The side of a contact that body i presents: what moves (the body or its
 // cluster), with the arm from its centre of mass to the contact point p.
 ContactSide contact_side(const BodyStore& b, int i, double t, const Vec3& p, const Vec3& center) {
-  return ContactSide{1.0 / moving_mass(b, i), moving_inverse_inertia(b, i, t), p - moving_center(b, i, t, center),
-                     reference_velocity(b, i), body_omega(b, i, t)};
+  // (A compliant member's own centre velocity, not its slice's chord.)
+  const Vec3 v = is_compliant(b, i) ? track_velocity(b.track[i], t) : reference_velocity(b, i);
+  return ContactSide{1.0 / moving_mass(b, i), moving_inverse_inertia(b, i, t), p - moving_center(b, i, t, center), v,
+                     body_omega(b, i, t)};
 }
 }  // namespace
 
-void Simulation::process_collision(int i, int j, double t) {
-  for (int b : {i, j}) {
-    if (bodies_.group[b] < 0) advance(bodies_.kin[b], t);
-    else rebase_cluster(bodies_.clusters[bodies_.group[b]], box_, t);
+void Simulation::touch(int b, double t) {
+  if (const int cg = bodies_.cgroup[b]; cg >= 0) {
+    cut_group(cg, t);
+    return;
   }
+  const int g = bodies_.group[b];
+  if (g < 0) {
+    advance(bodies_.kin[b], t);
+  } else if (compliant_ && g < static_cast<int>(dormant_.size()) && dormant_[g] >= 0) {
+    wake_cluster(g, t);  // a relaxed compliant cluster returns to the integrator
+  } else {
+    rebase_cluster(bodies_.clusters[g], box_, t);
+  }
+}
+
+void Simulation::process_collision(int i, int j, double t) {
+  touch(i, t);
+  touch(j, t);
   const ContactGeometry g = predictor_.contact_geometry(i, j, t);
   const ContactFrame frame = predictor_.contact_frame(i, j, t, g);
   const Vec3& p = frame.point;
@@ -297,14 +347,13 @@ void Simulation::process_collision(int i, int j, double t) {
   bump(i, t);
   bump(j, t);
   ++stats_.collisions;
+  if (termination_ != Termination::Running) return;  // a compliant cluster's integrator failed
   predict_group(i, t);
   predict_group(j, t);
 }
 
 void Simulation::process_wall(int i, const Event& ev, double t) {
-  const int gi = bodies_.group[i];
-  if (gi < 0) advance(bodies_.kin[i], t);
-  else rebase_cluster(bodies_.clusters[gi], box_, t);
+  touch(i, t);
   const Species& s = bodies_.sp(i);
   Vec3 n = Vec3::Zero();
   n[ev.dim] = ev.dir;  // from the body towards the wall
@@ -326,6 +375,7 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
   ext_angular_ += p.cross(-r.impulse);
   bump(i, t);
   ++stats_.wall_collisions;
+  if (termination_ != Termination::Running) return;
   predict_group(i, t);
 }
 
@@ -401,12 +451,16 @@ bool Simulation::step() {
       if (log_on_) log_.push_back({ev.time, ev.type, i, ev.dim * 2 + (ev.dir > 0)});
       process_cell(i, ev, ev.time);
       break;
+    case EventType::Slice:
+      process_slice(i, ev, ev.time);
+      break;
     case EventType::None:
       termination_ = Termination::TimeLimit;  // nothing can ever happen
       now_ = t_end;
       return false;
   }
   ++stats_.events;
+  if (termination_ == Termination::Error) return false;  // set by the event (a compliant integrator)
   if (predictor_.failed()) {
     termination_ = Termination::Error;
     error_ = "conservative advancement did not converge (more than " + std::to_string(Predictor::kMaxSteps) +
@@ -421,12 +475,13 @@ Termination Simulation::run() {
   while (step()) {
   }
   if (termination_ != Termination::Error) synchronize(now_);
+  collect_integrator_stats();
   return termination_;
 }
 
 void Simulation::synchronize(double t) {
   for (int i = 0; i < bodies_.size(); ++i)
-    if (bodies_.group[i] < 0) advance(bodies_.kin[i], t);
+    if (!in_cluster(bodies_, i)) advance(bodies_.kin[i], t);
   for (Cluster& c : bodies_.clusters)
     if (c.alive) rebase_cluster(c, box_, t);
   snapshot_members(bodies_, box_, t);

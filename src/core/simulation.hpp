@@ -30,13 +30,15 @@
 #include "core/body.hpp"
 #include "core/bond_graph.hpp"
 #include "core/cell_grid.hpp"
+#include "core/compliant_group.hpp"
 #include "core/event_queue.hpp"
 #include "core/params.hpp"
 #include "core/prediction.hpp"
 
 namespace ringsim {
 
-enum class EventType : std::uint8_t { None, Collision, Wall, CellCross, Capture };
+// Slice: a compliant member's slice end (core/compliant_group.hpp).
+enum class EventType : std::uint8_t { None, Collision, Wall, CellCross, Capture, Slice };
 
 // One pending event: a small value record owned by its body.
 struct Event {
@@ -63,6 +65,14 @@ struct RunStats {
   std::int64_t rejected_valency = 0, rejected_angle = 0, rejected_coplanarity = 0;
   std::uint64_t ca_steps = 0;        // conservative-advancement distance evaluations
   std::int64_t plane_evaluations = 0; // separating-plane bound evaluations
+  // Compliant clusters (docs/COMPLIANT.md, "Coupling").
+  std::int64_t slices = 0;           // slices integrated ahead
+  std::int64_t slice_cuts = 0;       // slices cut by an impulse or a bond
+  std::int64_t relaxed = 0;          // switches of a relaxed cluster to a rigid body
+  std::int64_t woken = 0;            // relaxed clusters returned to the integrator
+  std::int64_t sundials_steps = 0;   // integrator steps, all clusters
+  std::int64_t sundials_rhs = 0;     // right-hand-side evaluations, all clusters
+  double sundials_seconds = 0.0;     // wall time inside the integrators
 };
 
 // Interrupted: stopped from outside (set_stop_flag), e.g. by SIGTERM; the
@@ -103,6 +113,16 @@ class Simulation {
   // impulse and its moment about the origin, for the conservation checks.
   const Vec3& external_impulse() const { return ext_impulse_; }
   const Vec3& external_angular_impulse() const { return ext_angular_; }
+  // Compliant bonds: potential energy of every compliant cluster at t, and
+  // the potential energy bonds brought in when they formed (a bond forms at
+  // the capture distance, stretched), for the energy balance of validation.
+  double compliant_potential(double t) const;
+  double bond_energy() const { return bond_energy_; }
+  // 1-2 and 1-3 pairs of the bond graph (a sphere and a linker bonded to it,
+  // two linkers on one sphere, two spheres on one linker): never in contact.
+  bool contact_excluded(int i, int j) const;
+  // Integrator work so far (stats().sundials_*), including live clusters.
+  void collect_integrator_stats();
 
   // Attach an invariant checker run after every processed event.
   void set_validator(Validator* v) { validator_ = v; }
@@ -132,6 +152,19 @@ class Simulation {
   void process_wall(int i, const Event& ev, double t);
   void process_cell(int i, const Event& ev, double t);
   void apply_impulse(int i, const Vec3& J, const Vec3& arm);
+  // Makes body b's state at t current before an impulse or a bond: a free
+  // body advanced, a rigid cluster re-based, a compliant cluster cut (its
+  // integrator state set from the tracks), a relaxed one woken.
+  void touch(int b, double t);
+  // Compliant clusters (core/compliant_events.cpp).
+  void cut_group(int g, double t);
+  bool begin_slice(int g, double t);
+  void process_slice(int i, const Event& ev, double t);
+  void relax_group(int g, double t);
+  void wake_cluster(int cluster, double t);
+  void form_compliant_bond(int s, int l, int end, double t);
+  IntegratorOptions integrator_options() const;
+  void retire_integrator(CompliantGroup& g);
 
   SimParams params_;
   BodyStore bodies_;
@@ -167,6 +200,11 @@ class Simulation {
   std::string error_;
   Vec3 ext_impulse_ = Vec3::Zero();
   Vec3 ext_angular_ = Vec3::Zero();
+  bool compliant_ = false;               // compliant bonds (params.compliant.enabled())
+  std::vector<CompliantGroup> cgroups_;  // by id; retired ones stay (alive false)
+  std::vector<int> cindex_;              // body -> its index in its compliant group's model
+  std::vector<int> dormant_;             // rigid cluster id -> the relaxed compliant group it carries, or -1
+  double bond_energy_ = 0.0;
   Validator* validator_ = nullptr;
   bool log_on_ = false;
   std::vector<LoggedEvent> log_;

@@ -26,7 +26,11 @@ Validator::Validator(const Simulation& sim, double slack) : slack_(slack) {
 
 Validator::Totals Validator::totals(const Simulation& sim, double t) {
   const MechanicalTotals m = mechanical_totals(sim.bodies(), t);
-  return Totals{m.momentum, m.angular_momentum, m.energy, m.p_scale, m.l_scale};
+  // Compliant bonds: kinetic plus the springs' potential energy, less what
+  // bonds brought in when they formed (stretched at the capture distance);
+  // damping, inelastic merges and contacts may only lower it.
+  const double energy = m.energy + sim.compliant_potential(t) - sim.bond_energy();
+  return Totals{m.momentum, m.angular_momentum, energy, m.p_scale, m.l_scale};
 }
 
 std::int64_t Validator::count_overlaps(const Simulation& sim, double t, double slack) {
@@ -70,6 +74,9 @@ std::int64_t Validator::count_overlaps(const Simulation& sim, double t, double s
             // One rigid cluster: frozen relative pose, bonded neighbours may
             // touch by construction (1-2 and 1-3 exclusions).
             if (b.group[i] >= 0 && b.group[i] == b.group[j]) continue;
+            // One compliant cluster: its bodies move relative to each other,
+            // only bonded neighbours are excluded.
+            if (b.cgroup[i] >= 0 && b.cgroup[i] == b.cgroup[j] && sim.contact_excluded(i, j)) continue;
             const Species &si = b.sp(i), &sj = b.sp(j);
             const Vec3 xj = x[i] + box.min_image(x[j] - x[i]);
             const double reach = si.bounding_radius + sj.bounding_radius;

@@ -122,6 +122,11 @@ template <>
 struct EnumValues<CoplanarityMode> {
   static constexpr std::array all{CoplanarityMode::CisOrTrans, CoplanarityMode::Cis};
 };
+template <>
+struct EnumValues<CompliantMethod> {
+  static constexpr std::array all{CompliantMethod::Auto, CompliantMethod::Bdf, CompliantMethod::Adams,
+                                  CompliantMethod::Erk};
+};
 
 template <typename E>
 std::optional<E> parse_enum(std::string_view s) {
@@ -350,6 +355,21 @@ const std::vector<KeyDesc>& key_table() {
           "angle and dihedral damper c_omega (energy*time/rad^2) on the rate of the bond angle and dihedral"),
       key<&S::compliant, &P::target_gap>("compliant.target_gap", at_least(0),
           "target gap (length) between a bonded sphere's surface and the linker's end face"),
+      key<&S::compliant, &P::method>("compliant.method", any(),
+          "integrator of compliant clusters: auto (erk while k, k_omega <= 1e4, else bdf), bdf (CVODE BDF, "
+          "Newton), adams (CVODE Adams-Moulton), erk (ARKODE Dormand-Prince)"),
+      key<&S::compliant, &P::rtol>("compliant.rtol", closed(1e-14, 1e-1),
+          "relative tolerance of the compliant integrator"),
+      key<&S::compliant, &P::atol>("compliant.atol", closed(1e-16, 1e-1),
+          "absolute tolerance of the compliant integrator (every state component)"),
+      key<&S::compliant, &P::slice>("compliant.slice", closed(1e-4, 10),
+          "longest slice (time) a compliant cluster is integrated ahead of the event loop; its members move "
+          "on the cubic Hermite interpolant of the slice's end states"),
+      key<&S::compliant, &P::relax_energy>("compliant.relax_energy", at_least(0),
+          "relaxed-cluster switch: internal kinetic energy at or below which a cluster counts as quiet; "
+          "0 = always integrate"),
+      key<&S::compliant, &P::relax_time>("compliant.relax_time", at_least(0),
+          "relaxed-cluster switch: a cluster quiet for this long (time) moves as a rigid body until disturbed"),
 
       key<&S::run, &R::t_max>("run.t_max", greater(0),
           "simulated time limit of a replicate (the study's 5e5 steps of 0.01)"),
@@ -694,16 +714,17 @@ void check_cross(const SimParams& p, const Origins& origins, Problems& problems)
                      ": must be < geometry.linker_length = " + format_real(p.geometry.linker_length));
   }
 
-  // Compliant bonds (MODEL.md, "Two bond regimes") have their force field and
-  // integrators (core/compliant*.hpp) but are not yet coupled to the event
-  // loop: refuse them rather than silently running rigid bonds.
-  if (p.compliant.enabled()) {
-    const char* key = p.compliant.k > 0.0 ? "compliant.k" : "compliant.k_omega";
-    const double value = p.compliant.k > 0.0 ? p.compliant.k : p.compliant.k_omega;
+  // Compliant clusters carry a sphere's spin as a constant (no compliant load
+  // turns a smooth sphere, core/compliant.hpp): frictional sphere contacts,
+  // which would change it, are refused rather than run with a wrong torque.
+  if (p.compliant.enabled() && (p.contact.static_friction_sphere > 0.0 || p.contact.dynamic_friction_sphere > 0.0)) {
+    const char* key = p.contact.static_friction_sphere > 0.0 ? "contact.static_friction_sphere"
+                                                              : "contact.dynamic_friction_sphere";
+    const double value = std::max(p.contact.static_friction_sphere, p.contact.dynamic_friction_sphere);
     problems.add(2, 0, 0,
                  origin(origins, key) + key + " = " + format_real(value) +
-                     ": compliant bonds are not yet coupled to the event loop; only the rigid regime "
-                     "(compliant.k = compliant.k_omega = 0) can run");
+                     ": must be 0 with compliant bonds (compliant.k or compliant.k_omega > 0): compliant clusters "
+                     "model smooth spheres");
   }
 
   // A steady-state test needs enough batch means to say "not steady"

@@ -99,6 +99,17 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   j["slide_contacts"] = s.slide;
   j["ca_steps"] = s.ca_steps;
   j["plane_evaluations"] = s.plane_evaluations;
+  {
+    const Predictor::SearchCounts& sc = sim.predictor_counts();
+    j["ca_by_kind"] = {{"capture", sc.capture}, {"cluster_pair", sc.cluster_pair}, {"cluster_wall", sc.cluster_wall},
+                       {"cell", sc.cell}};
+  }
+  if (params.compliant.enabled() && params.bonding.enabled) {
+    j["compliant"] = {{"slices", s.slices},           {"slice_cuts", s.slice_cuts},
+                      {"relaxed", s.relaxed},         {"woken", s.woken},
+                      {"sundials_steps", s.sundials_steps}, {"sundials_rhs", s.sundials_rhs},
+                      {"sundials_seconds", s.sundials_seconds}};
+  }
   j["t_end"] = sim.time();
   j["termination"] = to_string(term);
   if (term == Termination::Error) j["error"] = sim.error();
@@ -245,6 +256,7 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
                           "cell_crossings", "stale_events", "tc_collisions", "ca_steps", "wall_seconds",
                           "events_per_second", "energy", "momentum"})
       row(k, j[k].dump());
+    if (j.contains("compliant")) row("compliant", j["compliant"].dump());
     if (j.contains("validation")) row("validation", j["validation"].dump());
     if (j.contains("error")) row("error", j["error"].get<std::string>());
   }

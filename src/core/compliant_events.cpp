@@ -1,0 +1,357 @@
+// Compliant clusters inside the event loop (docs/COMPLIANT.md, "Coupling";
+// core/compliant_group.hpp): slices, cuts at impulses and bonds, compliant
+// bond formation with ring closure, and the relaxed-cluster switch. Part of
+// class Simulation (core/simulation.hpp).
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <tuple>
+
+#include "core/cluster.hpp"
+#include "core/motion.hpp"
+#include "core/pose.hpp"
+#include "core/simulation.hpp"
+
+namespace ringsim {
+
+namespace {
+std::string format_time(double t) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", t);
+  return buf;
+}
+}  // namespace
+
+IntegratorOptions Simulation::integrator_options() const {
+  const CompliantParams& p = params_.compliant;
+  IntegratorOptions o;
+  o.rtol = p.rtol;
+  o.atol = p.atol;
+  switch (p.method) {
+    // docs/COMPLIANT.md, stability study: explicit Runge-Kutta is the cheapest
+    // up to k ~ 1e4 (4x cheaper than BDF at the study's k = 1e3); BDF's cost
+    // is flat in stiffness and wins from ~1e4 to 1e5 on.
+    case CompliantMethod::Auto: o.method = std::max(p.k, p.k_omega) <= 1e4 ? Method::ExplicitRk : Method::Bdf; break;
+    case CompliantMethod::Bdf: o.method = Method::Bdf; break;
+    case CompliantMethod::Adams: o.method = Method::Adams; break;
+    case CompliantMethod::Erk: o.method = Method::ExplicitRk; break;
+  }
+  return o;
+}
+
+bool Simulation::contact_excluded(int i, int j) const {
+  if (!params_.bonding.enabled) return false;
+  const bool si = bodies_.shape[i] == Shape::Sphere, sj = bodies_.shape[j] == Shape::Sphere;
+  if (si != sj) {  // 1-2: the sphere bonded to one of the linker's ends
+    const int s = si ? i : j, l = si ? j : i;
+    return graph_.sphere_of(l, 0) == s || graph_.sphere_of(l, 1) == s;
+  }
+  if (si) {  // 1-3: two spheres on one linker
+    for (const auto& [l, e] : graph_.linkers_of(i))
+      if (graph_.sphere_of(l, 1 - e) == j) return true;
+    return false;
+  }
+  for (int e = 0; e < 2; ++e) {  // 1-3: two linkers on one sphere
+    const int s = graph_.sphere_of(i, e);
+    if (s >= 0 && (graph_.sphere_of(j, 0) == s || graph_.sphere_of(j, 1) == s)) return true;
+  }
+  return false;
+}
+
+void Simulation::retire_integrator(CompliantGroup& g) {
+  if (!g.integ) return;
+  const IntegratorStats& st = g.integ->stats();
+  stats_.sundials_steps += st.steps;
+  stats_.sundials_rhs += st.rhs_evals;
+  stats_.sundials_seconds += st.wall_seconds;
+  g.integ.reset();
+}
+
+void Simulation::collect_integrator_stats() {
+  // Retired integrators are already in stats_; add the live ones once, at the
+  // end of the run (they are retired here so a second call adds nothing).
+  for (CompliantGroup& g : cgroups_) retire_integrator(g);
+}
+
+void Simulation::cut_group(int g, double t) {
+  CompliantGroup& G = cgroups_[g];
+  if (G.pending && G.ta == t) return;  // already cut at t (both bodies of one contact)
+  CompliantCluster& st = G.integ->mutable_state();
+  for (std::size_t k = 0; k < G.members.size(); ++k)
+    st.bodies[k] = member_state(bodies_, G.members[k], t, st.bodies[k], G.shift);
+  G.ta = t;
+  G.pending = true;
+  ++stats_.slice_cuts;
+}
+
+bool Simulation::begin_slice(int g, double t) {
+  CompliantGroup& G = cgroups_[g];
+  if (G.pending) G.integ->reinit_at(t);
+  G.pending = false;
+  if (box_.periodic) {
+    // Keep the centre of mass in the box through the shift (the integrator's
+    // own coordinates run on unwrapped).
+    Vec3 com = Vec3::Zero();
+    double mass = 0.0;
+    for (const CompliantBody& b : G.integ->state().bodies) {
+      com += b.mass * b.x;
+      mass += b.mass;
+    }
+    com = com / mass + G.shift;
+    for (int d = 0; d < 3; ++d) G.shift[d] -= box_.length * std::floor(com[d] / box_.length);
+  }
+  const CompliantCluster start = G.integ->state();
+  double D = params_.compliant.slice;
+  for (int attempt = 0;; ++attempt) {
+    const AdvanceResult r = G.integ->advance_to(t + D);
+    if (!r.ok()) {
+      termination_ = Termination::Error;
+      error_ = "compliant cluster of " + std::to_string(G.members.size()) + " bodies: " + r.reason;
+      return false;
+    }
+    // A slice in which an axis turns by about a radian or more is halved:
+    // the interpolated axis must stay well away from zero length
+    // (core/compliant_group.cpp).
+    const double len = set_tracks(bodies_, G, start, t, G.integ->state(), t + D);
+    if (len >= 0.5 || attempt == 30) break;
+    G.integ->mutable_state() = start;
+    G.integ->reinit_at(t);
+    D *= 0.5;
+  }
+  G.ta = t;
+  G.tb = t + D;
+  ++stats_.slices;
+  return true;
+}
+
+void Simulation::process_slice(int i, const Event& ev, double t) {
+  const int g = bodies_.cgroup[i];
+  if (g < 0 || cgroups_[g].pending || cgroups_[g].tb != t) {  // superseded (a cut or a new group)
+    ++stats_.stale;
+    predict(i, t);
+    return;
+  }
+  (void)ev;
+  CompliantGroup& G = cgroups_[g];
+  // Relaxed-cluster switch (issue "model no more than the scene needs"):
+  // the internal kinetic energy at each slice boundary; quiet for relax_time
+  // in a row: carry the cluster as a rigid body.
+  const CompliantParams& cp = params_.compliant;
+  if (cp.relax_energy > 0.0) {
+    if (internal_kinetic_energy(G.integ->state()) <= cp.relax_energy) {
+      if (std::isnan(G.quiet_since)) G.quiet_since = t;
+      if (t - G.quiet_since >= cp.relax_time) {
+        relax_group(g, t);
+        return;
+      }
+    } else {
+      G.quiet_since = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+  if (!begin_slice(g, t)) return;
+  for (int m : G.members) ++bodies_.counter[m];
+  for (int m : G.members) predict(m, t);
+}
+
+void Simulation::relax_group(int g, double t) {
+  CompliantGroup& G = cgroups_[g];
+  const CompliantCluster& st = G.integ->state();
+  G.frozen_potential = potential_energy(st);
+  for (std::size_t k = 0; k < G.members.size(); ++k) {
+    const int m = G.members[k];
+    CompliantBody b = st.bodies[k];
+    b.x += G.shift;
+    bodies_.kin[m] = kinematics_from(b, t);
+    bodies_.cgroup[m] = -1;
+  }
+  // One rigid body with the present relative pose: a perfectly inelastic
+  // merge (momentum and angular momentum kept; the small internal kinetic
+  // energy and the spins' energy go).
+  int cluster = -1;
+  for (std::size_t k = 1; k < G.members.size(); ++k) cluster = merge_groups(bodies_, box_, G.members[0], G.members[k], t);
+  retire_integrator(G);
+  dormant_.resize(bodies_.clusters.size(), -1);
+  dormant_[cluster] = g;
+  G.quiet_since = std::numeric_limits<double>::quiet_NaN();
+  ++stats_.relaxed;
+  for (int m : G.members) ++bodies_.counter[m];
+  for (int m : G.members) predict(m, t);
+}
+
+void Simulation::wake_cluster(int cluster, double t) {
+  const int g = dormant_[cluster];
+  dormant_[cluster] = -1;
+  CompliantGroup& G = cgroups_[g];
+  Cluster& c = bodies_.clusters[cluster];
+  rebase_cluster(c, box_, t);
+  CompliantCluster st = G.model;
+  for (std::size_t k = 0; k < G.members.size(); ++k) {
+    const int m = G.members[k];
+    const Vec3 x = body_center(bodies_, m, t);
+    const Species& sp = bodies_.sp(m);
+    st.bodies[k] = make_compliant_body(sp, x, shape_point_velocity(bodies_, m, t, x, x), body_axis(bodies_, m, t),
+                                       body_omega(bodies_, m, t));
+  }
+  for (std::size_t k = 0; k < G.members.size(); ++k) {
+    const int m = G.members[k];
+    bodies_.group[m] = -1;
+    bodies_.cgroup[m] = g;
+    cindex_[m] = static_cast<int>(k);
+  }
+  c.alive = false;
+  c.members.clear();
+  G.shift = Vec3::Zero();
+  G.integ = std::make_unique<ClusterIntegrator>(st, t, integrator_options());
+  // Zero-length tracks: exact poses and velocities at t until the slice begins.
+  set_tracks(bodies_, G, st, t, st, t);
+  G.ta = t;
+  G.pending = true;
+  ++stats_.woken;
+}
+
+void Simulation::form_compliant_bond(int s, int l, int end, double t) {
+  // Both bodies were touched at t: free ones advanced, compliant clusters cut
+  // (their integrator states are the states at t), relaxed ones woken.
+  const BondingParams& bp = params_.bonding;
+  graph_.add_bond(s, l, end, t);
+  ++stats_.bonds;
+  const int gs = bodies_.cgroup[s], gl = bodies_.cgroup[l];
+  if (gs >= 0 && gs == gl) {
+    // A ring closing inside one cluster: new terms, a new integrator.
+    CompliantGroup& G = cgroups_[gs];
+    CompliantCluster st = G.integ->state();
+    const double before = potential_energy(st);
+    add_compliant_bond(st, cindex_[s], cindex_[l], end, bp);
+    bond_energy_ += potential_energy(st) - before;
+    G.model = st;
+    retire_integrator(G);
+    G.integ = std::make_unique<ClusterIntegrator>(st, t, integrator_options());
+    G.ta = t;
+    G.pending = true;
+    monitor_.set(t, graph_.N_t());
+    return;
+  }
+  // Merge the two sides (free bodies or clusters) into one compliant cluster,
+  // side s first; states in world coordinates, side l moved to the periodic
+  // image nearest to s.
+  CompliantCluster nc;
+  nc.params = params_.compliant;
+  std::vector<int> members;
+  double before = 0.0;
+  auto add_side = [&](int b) {
+    const int base = static_cast<int>(members.size());
+    const int g = bodies_.cgroup[b];
+    if (g < 0) {
+      Kinematics k = bodies_.kin[b];
+      advance(k, t);
+      nc.bodies.push_back(compliant_body_from(k, bodies_.sp(b)));
+      members.push_back(b);
+      return base;
+    }
+    CompliantGroup& G = cgroups_[g];
+    const CompliantCluster& st = G.integ->state();
+    before += potential_energy(st);
+    for (std::size_t k = 0; k < G.members.size(); ++k) {
+      CompliantBody body = st.bodies[k];
+      body.x += G.shift;
+      nc.bodies.push_back(body);
+      members.push_back(G.members[k]);
+    }
+    for (CompliantBond x : st.bonds) nc.bonds.push_back({x.sphere + base, x.linker + base, x.end});
+    for (CompliantAngle x : st.angles)
+      nc.angles.push_back({x.sphere + base, x.linker_a + base, x.end_a, x.linker_b + base, x.end_b, x.theta0});
+    for (CompliantDihedral x : st.dihedrals)
+      nc.dihedrals.push_back({x.linker + base, x.nb0 + base, x.nb0_end, x.nb1 + base, x.nb1_end, x.phi0});
+    retire_integrator(G);
+    G.alive = false;
+    return base;
+  };
+  const int base_s = add_side(s);
+  const int base_l = add_side(l);
+  auto index_of = [&](int b) {
+    return static_cast<int>(std::find(members.begin(), members.end(), b) - members.begin());
+  };
+  {
+    const Vec3 xs = nc.bodies[index_of(s)].x, xl = nc.bodies[index_of(l)].x;
+    const Vec3 move = box_.min_image(xl - xs) - (xl - xs);
+    for (std::size_t k = base_l; k < nc.bodies.size(); ++k) nc.bodies[k].x += move;
+  }
+  add_compliant_bond(nc, index_of(s), index_of(l), end, bp);
+  const int id = static_cast<int>(cgroups_.size());
+  cgroups_.emplace_back();
+  CompliantGroup& G = cgroups_.back();
+  G.alive = true;
+  G.members = members;
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    bodies_.cgroup[members[k]] = id;
+    cindex_[members[k]] = static_cast<int>(k);
+  }
+  // Pairs the merge put inside one cluster that are already in the capture
+  // shell are checked now (MODEL.md, "Capture and bond formation"); the
+  // others can still close later, when their gap falls through r_c.
+  std::vector<std::tuple<int, int, int>> closures;
+  const double rc = bp.capture_distance, band = params_.run.contact_tolerance;
+  auto scan = [&](int from_lo, int from_hi, int to_lo, int to_hi) {
+    for (int a = from_lo; a < from_hi; ++a) {
+      if (nc.bodies[a].shape != Shape::Sphere) continue;
+      for (int b = to_lo; b < to_hi; ++b) {
+        if (nc.bodies[b].shape != Shape::Linker) continue;
+        for (int e = 0; e < 2; ++e)
+          if (graph_.sphere_of(members[b], e) < 0 &&
+              predictor_.capture_gap(members[b], e, members[a], t, rc) <= band)
+            closures.emplace_back(members[a], members[b], e);
+      }
+    }
+  };
+  const int n = static_cast<int>(members.size());
+  scan(base_s, base_l, base_l, n);
+  scan(base_l, n, base_s, base_l);
+  std::sort(closures.begin(), closures.end());
+  for (const auto& [cs, cl, ce] : closures) {
+    if (rules_allow(cs, cl, ce, t)) {
+      ++stats_.closure_bonds;
+      graph_.add_bond(cs, cl, ce, t);
+      add_compliant_bond(nc, cindex_[cs], cindex_[cl], ce, bp);
+      ++stats_.bonds;
+    }
+  }
+  bond_energy_ += potential_energy(nc) - before;
+  G.model = nc;
+  G.integ = std::make_unique<ClusterIntegrator>(nc, t, integrator_options());
+  set_tracks(bodies_, G, nc, t, nc, t);  // exact at t until the slice begins
+  G.ta = t;
+  G.pending = true;
+  monitor_.set(t, graph_.N_t());
+  if (box_.periodic) {
+    Vec3 com = Vec3::Zero();
+    double mass = 0.0;
+    for (const CompliantBody& b : nc.bodies) com += b.mass * b.x, mass += b.mass;
+    com /= mass;
+    double extent = 0.0;
+    for (const CompliantBody& b : nc.bodies) extent = std::max(extent, (b.x - com).norm() + b.radius + b.half_length);
+    if (4.0 * extent > box_.length) {
+      termination_ = Termination::Error;
+      error_ = "a compliant cluster reached a radius of " + std::to_string(extent) + " at t = " + format_time(t) +
+               ", more than a quarter of the periodic box (geometry.box_length = " + std::to_string(box_.length) +
+               "); minimum images would be ambiguous: use a larger box or reflective walls";
+    }
+  }
+}
+
+double Simulation::compliant_potential(double t) const {
+  double e = 0.0;
+  for (const CompliantGroup& G : cgroups_) {
+    if (!G.alive) continue;
+    if (!G.integ) {  // relaxed: carried rigidly with its pose (and strain) frozen
+      e += G.frozen_potential;
+      continue;
+    }
+    CompliantCluster st = G.model;
+    for (std::size_t k = 0; k < G.members.size(); ++k)
+      st.bodies[k] = member_state(bodies_, G.members[k], t, G.model.bodies[k], G.shift);
+    e += potential_energy(st);
+  }
+  return e;
+}
+
+}  // namespace ringsim

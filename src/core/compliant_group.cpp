@@ -1,0 +1,121 @@
+#include "core/compliant_group.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/track.hpp"
+
+namespace ringsim {
+
+double set_tracks(BodyStore& b, const CompliantGroup& g, const CompliantCluster& sa, double ta,
+                  const CompliantCluster& sb, double tb) {
+  const double D = tb - ta;
+  double min_len = 1.0;
+  for (std::size_t k = 0; k < g.members.size(); ++k) {
+    const CompliantBody &a = sa.bodies[k], &e = sb.bodies[k];
+    Track& tr = b.track[g.members[k]];
+    tr.ta = ta;
+    tr.tb = tb;
+    tr.xa = a.x + g.shift;
+    tr.va = a.v;
+    tr.xb = e.x + g.shift;
+    tr.vb = e.v;
+    tr.vbar = D > 0.0 ? Vec3((tr.xb - tr.xa) / D) : tr.va;
+    // core/track.hpp: |x - chord| <= D/4 max(|A|, |B|), |x' - vbar| <= |A| + |B|.
+    const double A = (tr.va - tr.vbar).norm(), B = (tr.vb - tr.vbar).norm();
+    tr.dev = 0.25 * D * std::max(A, B);
+    tr.center_speed = A + B;
+    // x''(t) = [(6 s - 4) A + (6 s - 2) B] / D (vectors A, B), linear in s:
+    // largest at an end.
+    const Vec3 Av = tr.va - tr.vbar, Bv = tr.vb - tr.vbar;
+    tr.center_accel = D > 0.0 ? std::max((4.0 * Av + 2.0 * Bv).norm(), (2.0 * Av + 4.0 * Bv).norm()) / D : 0.0;
+    if (a.shape == Shape::Sphere) {
+      tr.sphere_omega = a.omega;
+      tr.axis_rate = 0.0;
+      continue;
+    }
+    tr.ua = a.axis();
+    tr.ub = e.axis();
+    tr.wa = a.omega.cross(tr.ua);
+    tr.wb = e.omega.cross(tr.ub);
+    tr.spin_a = a.omega.dot(tr.ua);
+    tr.spin_b = e.omega.dot(tr.ub);
+    tr.ubar = D > 0.0 ? Vec3((tr.ub - tr.ua) / D) : tr.wa;
+    // The interpolated axis h(t) stays within D/4 max(|wa - ubar|, |wb - ubar|)
+    // of the chord (1 - s) ua + s ub, whose length is at least
+    // sqrt((1 + ua.ub) / 2) (at s = 1/2); |h'| <= |ubar| + |wa - ubar| + |wb - ubar|,
+    // and |d(h/|h|)/dt| <= |h'| / |h|.
+    const double Wa = (tr.wa - tr.ubar).norm(), Wb = (tr.wb - tr.ubar).norm();
+    const double len = std::sqrt(std::max(0.0, 0.5 * (1.0 + tr.ua.dot(tr.ub)))) - 0.25 * D * std::max(Wa, Wb);
+    min_len = std::min(min_len, len);
+    const double h1 = tr.ubar.norm() + Wa + Wb;
+    tr.axis_rate = len > 0.0 ? h1 / len : std::numeric_limits<double>::infinity();
+    // u = h / |h|: |u''| <= (|h''| + 3 |h'|^2 / |h|) / |h| (differentiate
+    // P h' / |h|, P = 1 - u u^T, |P'| <= 2 |u'|); the turning rate of the
+    // shape is Omega = u x u', |Omega'| <= |u''|, and a point at distance rho
+    // from the centre accelerates relative to it by at most (|Omega'| + |Omega|^2) rho.
+    const Vec3 WAv = tr.wa - tr.ubar, WBv = tr.wb - tr.ubar;
+    const double h2 = D > 0.0 ? std::max((4.0 * WAv + 2.0 * WBv).norm(), (2.0 * WAv + 4.0 * WBv).norm()) / D : 0.0;
+    tr.axis_accel = len > 0.0 ? (h2 + 3.0 * h1 * h1 / len) / len + tr.axis_rate * tr.axis_rate
+                              : std::numeric_limits<double>::infinity();
+  }
+  return min_len;
+}
+
+CompliantBody member_state(const BodyStore& b, int i, double t, const CompliantBody& model, const Vec3& shift) {
+  const Track& tr = b.track[i];
+  CompliantBody s = model;
+  s.x = track_center(tr, t) - shift;
+  s.v = track_velocity(tr, t);
+  if (s.shape == Shape::Sphere) {
+    s.omega = tr.sphere_omega;
+    return s;
+  }
+  const Vec3 u = track_axis(tr, t);
+  s.q = Quat::FromTwoVectors(Vec3::UnitZ(), u);
+  s.omega = track_omega(tr, t);
+  return s;
+}
+
+double internal_kinetic_energy(const CompliantCluster& c) {
+  // Rigid motion fitted to the pose velocities by least squares, weighted by
+  // mass and transverse inertia: V the centre-of-mass velocity, Omega from
+  //   [sum m (|r|^2 1 - r r^T) + sum_linkers I_perp (1 - u u^T)] Omega
+  //     = sum m r x (v - V) + sum_linkers I_perp u x u'.
+  // Spins about own axes (a sphere's, a linker's about its axis) do not move
+  // the pose and are left out: no compliant load acts on them.
+  double M = 0.0;
+  Vec3 X = Vec3::Zero(), V = Vec3::Zero();
+  for (const CompliantBody& b : c.bodies) {
+    M += b.mass;
+    X += b.mass * b.x;
+    V += b.mass * b.v;
+  }
+  X /= M;
+  V /= M;
+  Mat3 J = Mat3::Zero();
+  Vec3 rhs = Vec3::Zero();
+  for (const CompliantBody& b : c.bodies) {
+    const Vec3 r = b.x - X;
+    J += b.mass * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
+    rhs += b.mass * r.cross(b.v - V);
+    if (b.shape == Shape::Linker) {
+      const Vec3 u = b.axis();
+      J += b.i_perp * (Mat3::Identity() - u * u.transpose());
+      rhs += b.i_perp * u.cross(b.omega.cross(u));
+    }
+  }
+  const Vec3 W = J.ldlt().solve(rhs);
+  double e = 0.0;
+  for (const CompliantBody& b : c.bodies) {
+    const Vec3 r = b.x - X;
+    e += 0.5 * b.mass * (b.v - V - W.cross(r)).squaredNorm();
+    if (b.shape == Shape::Linker) {
+      const Vec3 u = b.axis();
+      e += 0.5 * b.i_perp * (b.omega.cross(u) - W.cross(u)).squaredNorm();
+    }
+  }
+  return e;
+}
+
+}  // namespace ringsim

@@ -1,0 +1,58 @@
+#pragma once
+// A compliant cluster inside the event loop (MODEL.md, "Two bond regimes",
+// compliant; docs/COMPLIANT.md, "Coupling"): its bodies' state is integrated
+// by a ClusterIntegrator in *slices*. A slice [ta, tb] is integrated ahead of
+// the event loop; each member then moves on the cubic Hermite interpolant of
+// the integrator's states at ta and tb (Track, core/body.hpp), which is a pure
+// function of time with proven bounds on its motion (core/track.hpp), so
+// contacts, walls, cell exits and captures are predicted on it by
+// conservative advancement exactly like any other body (core/pose.hpp). At
+// tb the next slice starts from the integrator's own state (positions and
+// velocities are continuous). An impulse or a bond at t inside a slice cuts
+// it: the members' states at t are read from their tracks, the integrator is
+// restarted there, the jump applied, and a new slice begins at t.
+
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "core/body.hpp"
+#include "core/compliant.hpp"
+#include "core/compliant_integrator.hpp"
+
+namespace ringsim {
+
+struct CompliantGroup {
+  bool alive = false;
+  std::vector<int> members;  // body ids; model.bodies[k] is body members[k]
+  CompliantCluster model;    // terms and parameters (its state is not kept up to date)
+  std::unique_ptr<ClusterIntegrator> integ;
+  // World positions = integrator positions + shift (periodic boxes: keeps the
+  // group's centre of mass in the box without touching the integrator).
+  Vec3 shift = Vec3::Zero();
+  double ta = 0.0, tb = 0.0;  // the present slice
+  bool pending = false;       // the integrator stands at ta with a changed state: a slice must begin
+  // Relaxed-cluster switch (core/compliant_group.cpp): start of the present
+  // quiet stretch (internal kinetic energy below the tolerance at every slice
+  // boundary since then); NaN while not quiet.
+  double quiet_since = std::numeric_limits<double>::quiet_NaN();
+  double frozen_potential = 0.0;  // potential energy while carried rigidly (relaxed)
+};
+
+// Tracks of every member of g over [ta, tb] from the integrator states sa at
+// ta and sb at tb (shift applied). Returns the smallest lower bound of the
+// interpolated axis' length over the slice (1 when there is no linker); the
+// caller shortens the slice when it is small (a turn of more than ~1 rad).
+double set_tracks(BodyStore& b, const CompliantGroup& g, const CompliantCluster& sa, double ta,
+                  const CompliantCluster& sb, double tb);
+
+// State of member i at t (inside its slice) from its track, in the
+// integrator's frame (shift removed). `model` supplies the body's constants.
+CompliantBody member_state(const BodyStore& b, int i, double t, const CompliantBody& model, const Vec3& shift);
+
+// Kinetic energy of the cluster's motion relative to the rigid motion with
+// the same momentum and angular momentum (centre of mass, composite inertia
+// tensor of the present pose): zero exactly when every body moves rigidly.
+double internal_kinetic_energy(const CompliantCluster& c);
+
+}  // namespace ringsim

@@ -1,0 +1,248 @@
+// Compliant clusters inside the event loop (docs/COMPLIANT.md, "Coupling"):
+// a four-corner chain closing into the square by a capture inside its own
+// cluster, conservation and the energy balance in validation mode, the
+// relaxed-cluster switch, determinism, and an explicit integrator's failure
+// surfacing as an error with its reason.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <tuple>
+
+#include "body_builder.hpp"
+#include "core/pose.hpp"
+#include "core/scene.hpp"
+#include "core/simulation.hpp"
+#include "core/validation.hpp"
+#include "core/track.hpp"
+
+namespace ringsim {
+namespace {
+
+using test::Init;
+using test::make_bodies;
+
+SimParams compliant_params() {
+  SimParams p;
+  p.geometry.box_length = 40.0;
+  p.init.spheres = 0;
+  p.init.linkers = 0;
+  p.bonding.enabled = true;
+  p.compliant.k = p.compliant.k_omega = 1000.0;  // Scenario 5
+  p.compliant.c = p.compliant.c_omega = 100.0;
+  p.run.t_max = 60.0;
+  p.run.steady_state = false;
+  return p;
+}
+
+// Track evaluation: the cubic Hermite interpolant meets its end data and
+// stays inside the bounds it carries (core/track.hpp).
+TEST(Track, HermiteMeetsEndDataAndItsBounds) {
+  Track k;
+  k.ta = 1.0;
+  k.tb = 1.25;
+  k.xa = Vec3(0.1, 0.2, 0.3);
+  k.va = Vec3(1.0, -0.5, 0.2);
+  k.xb = Vec3(0.4, 0.1, 0.35);
+  k.vb = Vec3(0.8, -0.2, 0.6);
+  k.vbar = (k.xb - k.xa) / (k.tb - k.ta);
+  const double A = (k.va - k.vbar).norm(), B = (k.vb - k.vbar).norm();
+  EXPECT_LT((track_center(k, k.ta) - k.xa).norm(), 1e-15);
+  EXPECT_LT((track_center(k, k.tb) - k.xb).norm(), 1e-15);
+  EXPECT_LT((track_velocity(k, k.ta) - k.va).norm(), 1e-14);
+  EXPECT_LT((track_velocity(k, k.tb) - k.vb).norm(), 1e-14);
+  const double D = k.tb - k.ta;
+  for (int n = 0; n <= 200; ++n) {
+    const double t = k.ta + D * n / 200.0;
+    const Vec3 chord = k.xa + k.vbar * (t - k.ta);
+    EXPECT_LE((track_center(k, t) - chord).norm(), 0.25 * D * std::max(A, B) + 1e-15);
+    EXPECT_LE((track_velocity(k, t) - k.vbar).norm(), A + B + 1e-14);
+    // The derivative is the derivative (central difference).
+    const double e = 1e-6;
+    const Vec3 fd = (track_center(k, t + e) - track_center(k, t - e)) / (2 * e);
+    EXPECT_LT((fd - track_velocity(k, t)).norm(), 1e-8);
+  }
+}
+
+// The four-corner open chain S0 L0 S1 L1 S2 L2 S3 L3 of a square, every bond
+// at gap 0.05 < r_c so the seven bonds form at t = 0 (all rules pass: right
+// angles, planar), with the last linker turned in the plane by `turn_deg`
+// about S3's centre, so that its free end faces S0 from beyond the capture
+// shell. The whole chain drifts at (0.2, 0.1, 0) (a momentum scale for the
+// validator); v, omega: random velocities on top (components up to these).
+// `spare`: a free sphere and a free linker far away, so that a bond stays
+// possible after the ring closes and the run goes on to t_max.
+std::vector<Init> open_square(double turn_deg, double v, double omega, std::uint64_t seed, bool spare = false) {
+  const Vec3 drift(0.2, 0.1, 0.0);
+  const double g = 0.05, side = 4.0 + 2.0 * (1.0 + g);
+  const Vec3 o(15, 15, 20);
+  const Vec3 S[4] = {o, o + Vec3(side, 0, 0), o + Vec3(side, side, 0), o + Vec3(0, side, 0)};
+  std::mt19937_64 gen(seed);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  auto rv = [&](double a) { return Vec3(a * U(gen), a * U(gen), a * U(gen)); };
+  std::vector<Init> init;
+  for (int k = 0; k < 4; ++k) init.push_back({Shape::Sphere, S[k], drift + rv(v), Vec3::UnitZ(), Vec3::Zero()});
+  if (spare) init.push_back({Shape::Sphere, Vec3(5, 5, 5), Vec3(0.1, 0.2, 0.3), Vec3::UnitZ(), Vec3::Zero()});
+  for (int k = 0; k < 4; ++k) {
+    const Vec3 a = S[k], b = S[(k + 1) % 4];
+    Vec3 axis = (a - b).normalized();  // end 0 (x + h u) faces S_k
+    Vec3 centre = 0.5 * (a + b);
+    if (k == 3) {
+      // L3 from S3 towards S0, turned about S3 in the plane.
+      const Eigen::AngleAxisd R(turn_deg * M_PI / 180.0, Vec3::UnitZ());
+      centre = a + R * (centre - a);
+      axis = R * axis;
+    }
+    init.push_back({Shape::Linker, centre, drift + rv(v), axis, rv(omega)});
+  }
+  if (spare) init.push_back({Shape::Linker, Vec3(35, 35, 5), Vec3(-0.1, 0.2, 0.1), Vec3::UnitX(), Vec3(0.1, 0, 0.3)});
+  return init;
+}
+
+double free_end_gap(const Simulation& sim) {
+  const BodyStore& b = sim.bodies();
+  const int S0 = 0, L3 = 7;  // (no spare bodies)
+  const Vec3 p = body_center(b, L3, sim.time()) + b.sp(L3).half_length * body_axis(b, L3, sim.time());
+  return (body_center(b, S0, sim.time()) - p).norm() - b.sp(S0).radius;
+}
+
+TEST(CompliantChain, RelaxesAndClosesIntoTheSquareInsideItsOwnCluster) {
+  SimParams p = compliant_params();
+  Simulation sim(p, make_bodies(p, open_square(4.0, 0.0, 0.0, 1)));
+  EXPECT_EQ(sim.stats().bonds, 7);  // the open chain, at t = 0
+  EXPECT_EQ(sim.graph().N_t(), 1);
+  EXPECT_GT(free_end_gap(sim), p.bonding.capture_distance);  // outside the shell
+  Validator v(sim);
+  sim.set_validator(&v);
+  while (sim.stats().bonds < 8 && sim.step()) {
+  }
+  ASSERT_NE(sim.termination(), Termination::Error) << sim.error();
+  EXPECT_EQ(sim.stats().bonds, 8) << "t = " << sim.time();
+  const Observables obs = sim.graph().observables(sim.time());
+  EXPECT_EQ(obs.N_tar, 1);
+  EXPECT_EQ(obs.N_t, 1);
+  EXPECT_EQ(v.report().overlaps, 0) << "first overlap at t = " << v.report().first_overlap_time;
+  // Free flight of one cluster: momentum and angular momentum are conserved
+  // by the force field identically; the interpolated tracks keep momentum
+  // exactly (it is linear in the data) and angular momentum to the solver's
+  // tolerance.
+  EXPECT_LT(v.report().max_momentum_error, 1e-12);
+  EXPECT_LT(v.report().max_angular_momentum_error, 1e-6);
+  // Energy (kinetic + springs - what bonds brought in) never rises beyond the
+  // solver's tolerance: dampers only remove energy.
+  EXPECT_LT(v.report().max_energy_error, 1e-5);
+  std::printf("closed at t = %.4f; slices %ld, cuts %ld, relaxed %ld\n", sim.time(), (long)sim.stats().slices,
+              (long)sim.stats().slice_cuts, (long)sim.stats().relaxed);
+  // The closure happened on the first approach, well within the transient
+  // (docs/COMPLIANT.md: every angle settles within ~5 time units).
+  EXPECT_LT(sim.time(), 10.0);
+}
+
+TEST(CompliantChain, ViolentReleaseNeverOverlaps) {
+  // Released with random velocities: the chain tumbles, its members hit
+  // each other (1-4 and farther pairs are not excluded) and perhaps close;
+  // whatever happens, no overlap and no energy gain.
+  for (std::uint64_t seed : {2u, 3u, 4u}) {
+    SimParams p = compliant_params();
+    p.run.t_max = 20.0;
+    Simulation sim(p, make_bodies(p, open_square(4.0, 0.5, 0.5, seed, true)));
+    Validator v(sim);
+    sim.set_validator(&v);
+    const Termination term = sim.run();
+    ASSERT_NE(term, Termination::Error) << sim.error();
+    EXPECT_EQ(v.report().overlaps, 0) << "seed " << seed << ": first overlap at t = " << v.report().first_overlap_time;
+    EXPECT_LT(v.report().max_momentum_error, 1e-12);
+    EXPECT_LT(v.report().max_energy_error, 1e-5);
+    EXPECT_EQ(term, Termination::TimeLimit);
+    std::printf("seed %lu: bonds %ld, collisions %ld, slices %ld, cuts %ld, relaxed %ld, dL %.1e, dE %.1e\n",
+                (unsigned long)seed, (long)sim.stats().bonds, (long)sim.stats().collisions, (long)sim.stats().slices,
+                (long)sim.stats().slice_cuts, (long)sim.stats().relaxed, v.report().max_angular_momentum_error,
+                v.report().max_energy_error);
+  }
+}
+
+TEST(CompliantChain, RelaxedClusterMovesRigidlyUntilDisturbed) {
+  // A lone sphere-linker pair bonded at t = 0 (gap 0.05, stretched towards
+  // the target gap 0), drifting: it relaxes, then travels as one rigid body
+  // with the same momentum; switching off the switch keeps it integrated.
+  auto run = [](double relax_energy) {
+    SimParams p = compliant_params();
+    p.compliant.relax_energy = relax_energy;
+    p.run.t_max = 12.0;
+    const double g = 0.05;
+    std::vector<Init> init = {{Shape::Sphere, Vec3(15, 20, 20), Vec3(0.3, 0.1, 0), Vec3::UnitZ(), Vec3::Zero()},
+                              {Shape::Linker, Vec3(15 + 1 + g + 2, 20, 20), Vec3(0.3, 0.1, 0), -Vec3::UnitX(),
+                               Vec3(0, 0, 0.2)}};
+    Simulation sim(p, make_bodies(p, init));
+    EXPECT_EQ(sim.stats().bonds, 1);
+    Validator v(sim);
+    sim.set_validator(&v);
+    EXPECT_NE(sim.run(), Termination::Error) << sim.error();
+    EXPECT_EQ(v.report().overlaps, 0);
+    EXPECT_LT(v.report().max_momentum_error, 1e-12);
+    EXPECT_LT(v.report().max_angular_momentum_error, 1e-6);
+    EXPECT_LT(v.report().max_energy_error, 1e-5);
+    return std::make_pair(sim.stats(), body_center(sim.bodies(), 1, sim.time()) - body_center(sim.bodies(), 0, sim.time()));
+  };
+  const auto [relaxing, d_relaxing] = run(1e-4);
+  const auto [integrated, d_integrated] = run(0.0);
+  EXPECT_GE(relaxing.relaxed, 1);
+  EXPECT_EQ(integrated.relaxed, 0);
+  EXPECT_LT(relaxing.slices, integrated.slices);
+  // Relaxed onto the target: the sphere on the axis touching the end face
+  // (centre distance h + r_S = 3), in both runs.
+  EXPECT_NEAR(d_relaxing.norm(), 3.0, 2e-3);
+  EXPECT_NEAR(d_integrated.norm(), 3.0, 2e-3);
+  std::printf("slices: %ld with the switch, %ld without\n", (long)relaxing.slices, (long)integrated.slices);
+}
+
+TEST(CompliantScenario, ValidationReplicateHasNoOverlapsAndIsDeterministic) {
+  SimParams p;  // Scenario 5: Scenario 4 + compliant bonds
+  p.compliant.k = p.compliant.k_omega = 1000.0;
+  p.compliant.c = p.compliant.c_omega = 100.0;
+  p.run.t_max = 25.0;
+  p.run.steady_state = false;
+  auto once = [&](bool validate) {
+    Simulation sim(p, build_scene(p, 5, 0, nullptr));
+    Validator v(sim);
+    if (validate) sim.set_validator(&v);
+    EXPECT_NE(sim.run(), Termination::Error) << sim.error();
+    if (validate) {
+      EXPECT_EQ(v.report().overlaps, 0) << "first overlap at t = " << v.report().first_overlap_time;
+      EXPECT_LT(v.report().max_momentum_error, 1e-10);  // walls' impulse accounted
+      EXPECT_LT(v.report().max_energy_error, 1e-5);
+      std::printf("events %ld bonds %ld slices %ld cuts %ld relaxed %ld woken %ld dE %.2e dL %.2e\n",
+                  (long)sim.stats().events, (long)sim.stats().bonds, (long)sim.stats().slices,
+                  (long)sim.stats().slice_cuts, (long)sim.stats().relaxed, (long)sim.stats().woken,
+                  v.report().max_energy_error, v.report().max_angular_momentum_error);
+    }
+    return std::make_tuple(sim.stats().events, sim.stats().bonds, sim.graph().N_t(), sim.time());
+  };
+  const auto a = once(true);
+  EXPECT_GE(std::get<1>(a), 5);  // bonding took place
+  EXPECT_EQ(once(false), a);     // the validator observes only
+}
+
+TEST(CompliantScenario, ExplicitIntegratorFailureEndsTheReplicateWithItsReason) {
+  // k = 1e6 with the explicit method and long slices: the step cap is hit
+  // (docs/COMPLIANT.md: ERK is stability-limited, ~2.4e-5 per step at 1e6).
+  SimParams p = compliant_params();
+  p.compliant.k = p.compliant.k_omega = 1e6;
+  p.compliant.c = p.compliant.c_omega = 1e5;
+  p.compliant.method = CompliantMethod::Erk;
+  p.compliant.slice = 5.0;
+  Simulation sim(p, make_bodies(p, open_square(4.0, 0.0, 0.0, 1)));
+  EXPECT_EQ(sim.run(), Termination::Error);
+  EXPECT_NE(sim.error().find("step limit reached"), std::string::npos) << sim.error();
+  EXPECT_NE(sim.error().find("method erk"), std::string::npos) << sim.error();
+  // BDF takes the same stiffness in its stride.
+  p.compliant.method = CompliantMethod::Bdf;
+  p.run.t_max = 2.0;
+  Simulation bdf(p, make_bodies(p, open_square(4.0, 0.0, 0.0, 1)));
+  EXPECT_NE(bdf.run(), Termination::Error) << bdf.error();
+}
+
+}  // namespace
+}  // namespace ringsim
