@@ -134,8 +134,8 @@ void Simulation::process_capture(int i, const Event& ev, double t) {
   const int l = bodies_.shape[i] == Shape::Linker ? i : j, s = l == i ? j : i;
   ++stats_.captures;
   if (rules_allow(s, l, ev.dim, t)) {
-    touch(s, t);
-    touch(l, t);
+    touch(s, t, false);
+    touch(l, t, false);
     form_bond(s, l, ev.dim, t);
     bump(l, t);  // l and s now share a cluster: every member
     if (termination_ == Termination::Error) return;

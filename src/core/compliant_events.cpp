@@ -76,6 +76,13 @@ void Simulation::collect_integrator_stats() {
 void Simulation::cut_group(int g, double t) {
   CompliantGroup& G = cgroups_[g];
   if (G.pending && G.ta == t) return;  // already cut at t (both bodies of one contact)
+  // Contact bursts: impulses (or bonds) less than burst_time apart.
+  if (t - G.burst_last < params_.compliant.burst_time) {
+    ++G.burst_count;
+  } else {
+    G.burst_count = 1;
+  }
+  G.burst_last = t;
   CompliantCluster& st = G.integ->mutable_state();
   for (std::size_t k = 0; k < G.members.size(); ++k)
     st.bodies[k] = member_state(bodies_, G.members[k], t, st.bodies[k], G.shift);
@@ -142,6 +149,8 @@ void Simulation::process_slice(int i, const Event& ev, double t) {
       if (std::isnan(G.quiet_since)) G.quiet_since = t;
       if (t - G.quiet_since >= cp.relax_time) {
         relax_group(g, t);
+        for (int m : G.members) ++bodies_.counter[m];
+        for (int m : G.members) predict(m, t);
         return;
       }
     } else {
@@ -173,9 +182,8 @@ void Simulation::relax_group(int g, double t) {
   dormant_.resize(bodies_.clusters.size(), -1);
   dormant_[cluster] = g;
   G.quiet_since = std::numeric_limits<double>::quiet_NaN();
+  G.hold_until = -std::numeric_limits<double>::infinity();  // a quiet cluster wakes at any contact
   ++stats_.relaxed;
-  for (int m : G.members) ++bodies_.counter[m];
-  for (int m : G.members) predict(m, t);
 }
 
 void Simulation::wake_cluster(int cluster, double t) {

@@ -37,6 +37,13 @@ struct CompliantGroup {
   // boundary since then); NaN while not quiet.
   double quiet_since = std::numeric_limits<double>::quiet_NaN();
   double frozen_potential = 0.0;  // potential energy while carried rigidly (relaxed)
+  // Contact bursts (core/compliant_events.cpp): time of the last impulse and
+  // the length of the present run of impulses less than compliant.burst_time apart.
+  double burst_last = -std::numeric_limits<double>::infinity();
+  int burst_count = 0;
+  // After a contact burst the rigid cluster is held (contacts do not wake it)
+  // until no contact has come for burst_time.
+  double hold_until = -std::numeric_limits<double>::infinity();
 };
 
 // Tracks of every member of g over [ta, tb] from the integrator states sa at

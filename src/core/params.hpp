@@ -94,6 +94,13 @@ struct CompliantParams {
   // a contact or a bond disturbs it; relax_energy = 0 never switches.
   double relax_energy = 1e-4;
   double relax_time = 2.0;
+  // Contact bursts: a cluster whose members take burst_contacts impulses
+  // within burst_time (a member pressed by its springs against another body:
+  // bounces that shrink towards a resting contact, infinitely many in finite
+  // time) is carried as a rigid body from the last of them, until the next
+  // disturbance; burst_contacts = 0 never does.
+  int burst_contacts = 8;
+  double burst_time = 0.05;
   bool enabled() const { return k > 0.0 || k_omega > 0.0; }
 };
 

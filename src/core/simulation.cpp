@@ -304,16 +304,33 @@ ContactSide contact_side(const BodyStore& b, int i, double t, const Vec3& p, con
 }
 }  // namespace
 
-void Simulation::touch(int b, double t) {
+void Simulation::touch(int b, double t, bool impulse) {
   if (const int cg = bodies_.cgroup[b]; cg >= 0) {
     cut_group(cg, t);
+    CompliantGroup& G = cgroups_[cg];
+    const int burst = params_.compliant.burst_contacts;
+    if (impulse && burst > 0 && G.burst_count >= burst) {
+      // The end of a contact burst: the cluster takes this impulse, and
+      // moves, as one rigid body (core/compliant_events.cpp).
+      G.burst_count = 0;
+      ++stats_.bursts;
+      relax_group(cg, t);
+      G.hold_until = t + params_.compliant.burst_time;
+    }
     return;
   }
   const int g = bodies_.group[b];
   if (g < 0) {
     advance(bodies_.kin[b], t);
   } else if (compliant_ && g < static_cast<int>(dormant_.size()) && dormant_[g] >= 0) {
-    wake_cluster(g, t);  // a relaxed compliant cluster returns to the integrator
+    CompliantGroup& G = cgroups_[dormant_[g]];
+    if (t >= G.hold_until || !impulse) {
+      wake_cluster(g, t);  // a relaxed compliant cluster returns to the integrator
+    } else {
+      // Held rigid after a contact burst while the contacts go on.
+      rebase_cluster(bodies_.clusters[g], box_, t);
+      G.hold_until = t + params_.compliant.burst_time;
+    }
   } else {
     rebase_cluster(bodies_.clusters[g], box_, t);
   }

@@ -70,6 +70,7 @@ struct RunStats {
   std::int64_t slice_cuts = 0;       // slices cut by an impulse or a bond
   std::int64_t relaxed = 0;          // switches of a relaxed cluster to a rigid body
   std::int64_t woken = 0;            // relaxed clusters returned to the integrator
+  std::int64_t bursts = 0;           // clusters made rigid by a contact burst
   std::int64_t sundials_steps = 0;   // integrator steps, all clusters
   std::int64_t sundials_rhs = 0;     // right-hand-side evaluations, all clusters
   double sundials_seconds = 0.0;     // wall time inside the integrators
@@ -155,7 +156,8 @@ class Simulation {
   // Makes body b's state at t current before an impulse or a bond: a free
   // body advanced, a rigid cluster re-based, a compliant cluster cut (its
   // integrator state set from the tracks), a relaxed one woken.
-  void touch(int b, double t);
+  // An impulse (not a bond) may end a contact burst (compliant.burst_*).
+  void touch(int b, double t, bool impulse = true);
   // Compliant clusters (core/compliant_events.cpp).
   void cut_group(int g, double t);
   bool begin_slice(int g, double t);

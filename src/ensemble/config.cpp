@@ -370,6 +370,12 @@ const std::vector<KeyDesc>& key_table() {
           "0 = always integrate"),
       key<&S::compliant, &P::relax_time>("compliant.relax_time", at_least(0),
           "relaxed-cluster switch: a cluster quiet for this long (time) moves as a rigid body until disturbed"),
+      key<&S::compliant, &P::burst_contacts>("compliant.burst_contacts", at_least(0),
+          "contact bursts: a cluster taking this many impulses each less than burst_time after the previous "
+          "moves as a rigid body from the last one until disturbed (stops a resting contact's endless "
+          "bounces); 0 = never"),
+      key<&S::compliant, &P::burst_time>("compliant.burst_time", greater(0),
+          "contact bursts: largest time (time) between impulses that continue a burst"),
 
       key<&S::run, &R::t_max>("run.t_max", greater(0),
           "simulated time limit of a replicate (the study's 5e5 steps of 0.01)"),

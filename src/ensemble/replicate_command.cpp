@@ -106,7 +106,7 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   }
   if (params.compliant.enabled() && params.bonding.enabled) {
     j["compliant"] = {{"slices", s.slices},           {"slice_cuts", s.slice_cuts},
-                      {"relaxed", s.relaxed},         {"woken", s.woken},
+                      {"relaxed", s.relaxed},         {"woken", s.woken}, {"bursts", s.bursts},
                       {"sundials_steps", s.sundials_steps}, {"sundials_rhs", s.sundials_rhs},
                       {"sundials_seconds", s.sundials_seconds}};
   }
