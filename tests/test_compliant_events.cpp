@@ -198,6 +198,36 @@ TEST(CompliantChain, RelaxedClusterMovesRigidlyUntilDisturbed) {
   std::printf("slices: %ld with the switch, %ld without\n", (long)relaxing.slices, (long)integrated.slices);
 }
 
+TEST(CompliantChain, ContactBurstEndsInRigidMotionWithoutOverlapOrEnergyGain) {
+  // A bonded sphere-linker pair flying sphere-first into a reflective wall:
+  // the sphere bounces, the linker keeps coming and its bond spring presses
+  // the sphere back into the wall, again and again. With a burst of 3
+  // impulses the pair takes the wall as one rigid body and leaves it.
+  SimParams p = compliant_params();
+  p.compliant.burst_contacts = 3;
+  p.run.t_max = 20.0;
+  const double g = 0.05;
+  const Vec3 v(-1.0, 0.0, 0.0);
+  std::vector<Init> init = {{Shape::Sphere, Vec3(2.0, 20, 20), v, Vec3::UnitZ(), Vec3::Zero()},
+                            {Shape::Linker, Vec3(2.0 + 1 + g + 2, 20, 20), v, Vec3::UnitX(), Vec3::Zero()}};
+  // (linker end 1 = x - h u faces the sphere)
+  Simulation sim(p, make_bodies(p, init));
+  ASSERT_EQ(sim.stats().bonds, 1);
+  Validator val(sim);
+  sim.set_validator(&val);
+  EXPECT_NE(sim.run(), Termination::Error) << sim.error();
+  EXPECT_EQ(val.report().overlaps, 0) << "first overlap at t = " << val.report().first_overlap_time;
+  EXPECT_LT(val.report().max_momentum_error, 1e-12);  // the wall's impulses accounted
+  EXPECT_LT(val.report().max_energy_error, 1e-5);
+  EXPECT_GE(sim.stats().wall_collisions, 3);
+  EXPECT_GE(sim.stats().bursts, 1);
+  // It left the wall: moving away from it at the end.
+  const double vx = sim.bodies().kin[0].v.x() + sim.bodies().kin[1].v.x();
+  EXPECT_GT(vx, 0.0);
+  std::printf("wall contacts %ld, bursts %ld, relaxed %ld, woken %ld\n", (long)sim.stats().wall_collisions,
+              (long)sim.stats().bursts, (long)sim.stats().relaxed, (long)sim.stats().woken);
+}
+
 TEST(CompliantScenario, ValidationReplicateHasNoOverlapsAndIsDeterministic) {
   SimParams p;  // Scenario 5: Scenario 4 + compliant bonds
   p.compliant.k = p.compliant.k_omega = 1000.0;
