@@ -7,6 +7,7 @@
 # usage: bench/bench_compliant_scenario.sh RINGSIM T_MAX SEEDS [TIMEOUT_S]
 #   e.g. bench/bench_compliant_scenario.sh ./build/ringsim 100 10
 # Prints one CSV row per replicate, then the medians and their ratio.
+# Extra overrides for both scenarios: RINGSIM_SET="run.contact_tolerance=1e-6 ..."
 set -euo pipefail
 ringsim=${1:?ringsim binary}
 t_max=${2:?t_max}
@@ -22,8 +23,10 @@ echo "scenario,seed,wall_s,events,collisions,bonds,sundials_s,slices,cuts,relaxe
 for seed in $(seq 1 "$seeds"); do
   for sc in "$s4" "$s5"; do
     name=$(basename "$sc" .toml)
+    extra=()
+    for kv in ${RINGSIM_SET:-}; do extra+=(--set "$kv"); done
     if timeout "$limit" "$ringsim" replicate "$sc" --seed "$seed" --set run.t_max="$t_max" --set run.steady_state=false \
-        --json > "$out" 2>/dev/null; then
+        "${extra[@]}" --json > "$out" 2>/dev/null; then
       "$py" - "$name" "$seed" "$out" <<'PY'
 import json, sys
 name, seed, path = sys.argv[1], sys.argv[2], sys.argv[3]
