@@ -12,6 +12,7 @@
 #include <tuple>
 
 #include "body_builder.hpp"
+#include "core/cluster.hpp"
 #include "core/pose.hpp"
 #include "core/scene.hpp"
 #include "core/simulation.hpp"
@@ -172,7 +173,9 @@ TEST(CompliantChain, RelaxedClusterMovesRigidlyUntilDisturbed) {
     p.compliant.relax_energy = relax_energy;
     p.run.t_max = 12.0;
     const double g = 0.05;
-    std::vector<Init> init = {{Shape::Sphere, Vec3(15, 20, 20), Vec3(0.3, 0.1, 0), Vec3::UnitZ(), Vec3::Zero()},
+    // (The sphere spins: its spin is carried aside while the pair is rigid,
+    // BodyStore::held_spin, so angular momentum and energy stay put.)
+    std::vector<Init> init = {{Shape::Sphere, Vec3(15, 20, 20), Vec3(0.3, 0.1, 0), Vec3::UnitZ(), Vec3(0.3, -0.2, 0.5)},
                               {Shape::Linker, Vec3(15 + 1 + g + 2, 20, 20), Vec3(0.3, 0.1, 0), -Vec3::UnitX(),
                                Vec3(0, 0, 0.2)}};
     Simulation sim(p, make_bodies(p, init));
@@ -184,10 +187,16 @@ TEST(CompliantChain, RelaxedClusterMovesRigidlyUntilDisturbed) {
     EXPECT_LT(v.report().max_momentum_error, 1e-12);
     EXPECT_LT(v.report().max_angular_momentum_error, 1e-6);
     EXPECT_LT(v.report().max_energy_error, 1e-5);
-    return std::make_pair(sim.stats(), body_center(sim.bodies(), 1, sim.time()) - body_center(sim.bodies(), 0, sim.time()));
+    return std::make_tuple(sim.stats(), Vec3(body_center(sim.bodies(), 1, sim.time()) - body_center(sim.bodies(), 0, sim.time())),
+                           mechanical_totals(sim.bodies(), sim.time()).energy);
   };
-  const auto [relaxing, d_relaxing] = run(1e-4);
-  const auto [integrated, d_integrated] = run(0.0);
+  const auto [relaxing, d_relaxing, e_relaxing] = run(1e-4);
+  const auto [integrated, d_integrated, e_integrated] = run(0.0);
+  // The switch loses little: the sphere's spin energy (0.32 here) is kept
+  // aside, not merged away; what is lost is the linker's spin about its own
+  // axis picked up in the transient (measured 0.0055), which the rigid
+  // merge still absorbs (docs/COMPLIANT.md).
+  EXPECT_NEAR(e_relaxing, e_integrated, 0.02);
   EXPECT_GE(relaxing.relaxed, 1);
   EXPECT_EQ(integrated.relaxed, 0);
   EXPECT_LT(relaxing.slices, integrated.slices);

@@ -145,6 +145,12 @@ struct BodyStore {
   // group[i] says free or rigid), track[i] its motion over the current slice.
   std::vector<int> cgroup;
   std::vector<Track> track;
+  // A sphere's own angular velocity, carried aside while its compliant
+  // cluster moves as a rigid body (relaxed or after a contact burst): a
+  // smooth sphere's spin moves no pose and takes no impulse, so it is neither
+  // merged into the cluster's tumbling nor lost; given back when the cluster
+  // wakes. Zero otherwise (may be empty when no compliant cluster exists).
+  std::vector<Vec3> held_spin;
 
   int size() const { return static_cast<int>(kin.size()); }
   const Species& sp(int i) const { return species[static_cast<int>(shape[i])]; }

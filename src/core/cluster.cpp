@@ -175,6 +175,15 @@ MechanicalTotals mechanical_totals(const BodyStore& b, double t) {
     r.p_scale += p.norm();
     r.l_scale += k.x.norm() * p.norm() + own.norm();
   }
+  // Spheres' spins held aside by rigid compliant clusters (BodyStore).
+  for (std::size_t i = 0; i < b.held_spin.size(); ++i) {
+    const Vec3& w = b.held_spin[i];
+    if (w.isZero(0.0)) continue;
+    const Species& s = b.sp(static_cast<int>(i));
+    r.angular_momentum += s.i_perp * w;
+    r.rotational += 0.5 * s.i_perp * w.squaredNorm();
+    r.l_scale += s.i_perp * w.norm();
+  }
   for (const Cluster& c : b.clusters) {
     if (!c.alive) continue;
     const Vec3 x = c.x + c.v * (t - c.t);

@@ -170,6 +170,10 @@ void Simulation::relax_group(int g, double t) {
     const int m = G.members[k];
     CompliantBody b = st.bodies[k];
     b.x += G.shift;
+    if (b.shape == Shape::Sphere) {
+      bodies_.held_spin[m] = b.omega;  // carried aside (BodyStore::held_spin)
+      b.omega = Vec3::Zero();
+    }
     bodies_.kin[m] = kinematics_from(b, t);
     bodies_.cgroup[m] = -1;
   }
@@ -197,8 +201,9 @@ void Simulation::wake_cluster(int cluster, double t) {
     const int m = G.members[k];
     const Vec3 x = body_center(bodies_, m, t);
     const Species& sp = bodies_.sp(m);
-    st.bodies[k] = make_compliant_body(sp, x, shape_point_velocity(bodies_, m, t, x, x), body_axis(bodies_, m, t),
-                                       body_omega(bodies_, m, t));
+    const Vec3 omega = sp.shape == Shape::Sphere ? bodies_.held_spin[m] : body_omega(bodies_, m, t);
+    bodies_.held_spin[m] = Vec3::Zero();
+    st.bodies[k] = make_compliant_body(sp, x, shape_point_velocity(bodies_, m, t, x, x), body_axis(bodies_, m, t), omega);
   }
   for (std::size_t k = 0; k < G.members.size(); ++k) {
     const int m = G.members[k];

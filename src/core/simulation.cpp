@@ -84,6 +84,7 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   bodies_.clusters.clear();
   bodies_.cgroup.assign(n, -1);
   bodies_.track.assign(n, Track{});
+  bodies_.held_spin.assign(n, Vec3::Zero());
   compliant_ = params_.bonding.enabled && params_.compliant.enabled();
   cindex_.assign(n, -1);
   memo_.assign(n, {});
