@@ -120,13 +120,16 @@ void Simulation::form_bond(int s, int l, int end, double t) {
   if (box_.periodic) {
     double extent = 0.0;
     for (int m : bodies_.clusters[g].members) extent = std::max(extent, reference_radius(bodies_, m));
-    if (4.0 * extent > box_.length) {
-      termination_ = Termination::Error;
-      error_ = "a rigid cluster reached a radius of " + std::to_string(extent) + " at t = " + std::to_string(t) +
-               ", more than a quarter of the periodic box (geometry.box_length = " + std::to_string(box_.length) +
-               "); minimum images would be ambiguous: use a larger box or reflective walls";
-    }
+    check_cluster_extent("rigid", extent, t);
   }
+}
+
+void Simulation::check_cluster_extent(const char* kind, double extent, double t) {
+  if (4.0 * extent <= box_.length) return;
+  termination_ = Termination::Error;
+  error_ = std::string("a ") + kind + " cluster reached a radius of " + std::to_string(extent) + " at t = " +
+           std::to_string(t) + ", more than a quarter of the periodic box (geometry.box_length = " +
+           std::to_string(box_.length) + "); minimum images would be ambiguous: use a larger box or reflective walls";
 }
 
 void Simulation::process_capture(int i, const Event& ev, double t) {

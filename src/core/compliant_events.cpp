@@ -14,14 +14,6 @@
 
 namespace ringsim {
 
-namespace {
-std::string format_time(double t) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.9g", t);
-  return buf;
-}
-}  // namespace
-
 IntegratorOptions Simulation::integrator_options() const {
   const CompliantParams& p = params_.compliant;
   IntegratorOptions o;
@@ -76,13 +68,6 @@ void Simulation::collect_integrator_stats() {
 void Simulation::cut_group(int g, double t) {
   CompliantGroup& G = cgroups_[g];
   if (G.pending && G.ta == t) return;  // already cut at t (both bodies of one contact)
-  // Contact bursts: impulses (or bonds) less than burst_time apart.
-  if (t - G.burst_last < params_.compliant.burst_time) {
-    ++G.burst_count;
-  } else {
-    G.burst_count = 1;
-  }
-  G.burst_last = t;
   CompliantCluster& st = G.integ->mutable_state();
   for (std::size_t k = 0; k < G.members.size(); ++k)
     st.bodies[k] = member_state(bodies_, G.members[k], t, st.bodies[k], G.shift);
@@ -107,7 +92,7 @@ bool Simulation::begin_slice(int g, double t) {
     com = com / mass + G.shift;
     for (int d = 0; d < 3; ++d) G.shift[d] -= box_.length * std::floor(com[d] / box_.length);
   }
-  const CompliantCluster start = G.integ->state();
+  const std::vector<CompliantBody> start = G.integ->state().bodies;
   double D = params_.compliant.slice;
   for (int attempt = 0;; ++attempt) {
     const AdvanceResult r = G.integ->advance_to(t + D);
@@ -119,9 +104,9 @@ bool Simulation::begin_slice(int g, double t) {
     // A slice in which an axis turns by about a radian or more is halved:
     // the interpolated axis must stay well away from zero length
     // (core/compliant_group.cpp).
-    const double len = set_tracks(bodies_, G, start, t, G.integ->state(), t + D);
+    const double len = set_tracks(bodies_, G, start, t, G.integ->state().bodies, t + D);
     if (len >= 0.5 || attempt == 30) break;
-    G.integ->mutable_state() = start;
+    G.integ->mutable_state().bodies = start;
     G.integ->reinit_at(t);
     D *= 0.5;
   }
@@ -216,7 +201,7 @@ void Simulation::wake_cluster(int cluster, double t) {
   G.shift = Vec3::Zero();
   G.integ = std::make_unique<ClusterIntegrator>(st, t, integrator_options());
   // Zero-length tracks: exact poses and velocities at t until the slice begins.
-  set_tracks(bodies_, G, st, t, st, t);
+  set_tracks(bodies_, G, st.bodies, t, st.bodies, t);
   G.ta = t;
   G.pending = true;
   ++stats_.woken;
@@ -331,7 +316,7 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
   bond_energy_ += potential_energy(nc) - before;
   G.model = nc;
   G.integ = std::make_unique<ClusterIntegrator>(nc, t, integrator_options());
-  set_tracks(bodies_, G, nc, t, nc, t);  // exact at t until the slice begins
+  set_tracks(bodies_, G, nc.bodies, t, nc.bodies, t);  // exact at t until the slice begins
   G.ta = t;
   G.pending = true;
   monitor_.set(t, graph_.N_t());
@@ -342,12 +327,7 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
     com /= mass;
     double extent = 0.0;
     for (const CompliantBody& b : nc.bodies) extent = std::max(extent, (b.x - com).norm() + b.radius + b.half_length);
-    if (4.0 * extent > box_.length) {
-      termination_ = Termination::Error;
-      error_ = "a compliant cluster reached a radius of " + std::to_string(extent) + " at t = " + format_time(t) +
-               ", more than a quarter of the periodic box (geometry.box_length = " + std::to_string(box_.length) +
-               "); minimum images would be ambiguous: use a larger box or reflective walls";
-    }
+    check_cluster_extent("compliant", extent, t);
   }
 }
 

@@ -7,12 +7,12 @@
 
 namespace ringsim {
 
-double set_tracks(BodyStore& b, const CompliantGroup& g, const CompliantCluster& sa, double ta,
-                  const CompliantCluster& sb, double tb) {
+double set_tracks(BodyStore& b, const CompliantGroup& g, const std::vector<CompliantBody>& sa, double ta,
+                  const std::vector<CompliantBody>& sb, double tb) {
   const double D = tb - ta;
   double min_len = 1.0;
   for (std::size_t k = 0; k < g.members.size(); ++k) {
-    const CompliantBody &a = sa.bodies[k], &e = sb.bodies[k];
+    const CompliantBody &a = sa[k], &e = sb[k];
     Track& tr = b.track[g.members[k]];
     tr.ta = ta;
     tr.tb = tb;

@@ -50,8 +50,8 @@ struct CompliantGroup {
 // ta and sb at tb (shift applied). Returns the smallest lower bound of the
 // interpolated axis' length over the slice (1 when there is no linker); the
 // caller shortens the slice when it is small (a turn of more than ~1 rad).
-double set_tracks(BodyStore& b, const CompliantGroup& g, const CompliantCluster& sa, double ta,
-                  const CompliantCluster& sb, double tb);
+double set_tracks(BodyStore& b, const CompliantGroup& g, const std::vector<CompliantBody>& sa, double ta,
+                  const std::vector<CompliantBody>& sb, double tb);
 
 // State of member i at t (inside its slice) from its track, in the
 // integrator's frame (shift removed). `model` supplies the body's constants.

@@ -122,6 +122,11 @@ geom::Cylinder body_cylinder(const BodyStore& b, int i, double t);
 // the body itself, or its whole cluster.
 double moving_mass(const BodyStore& b, int i);
 Mat3 moving_inverse_inertia(const BodyStore& b, int i, double t);
+// Velocity of the centre of what moves: the body's (a compliant member's own,
+// not its slice's chord) or its rigid cluster's centre of mass.
+inline Vec3 moving_velocity(const BodyStore& b, int i, double t) {
+  return b.cgroup[i] >= 0 ? track_velocity(b.track[i], t) : reference_velocity(b, i);
+}
 // Centre of what moves (the body's centre or the cluster's centre of mass)
 // in the image of `center`, the body's centre at t.
 Vec3 moving_center(const BodyStore& b, int i, double t, const Vec3& center);

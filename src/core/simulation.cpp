@@ -298,17 +298,20 @@ namespace {
 // The side of a contact that body i presents: what moves (the body or its
 // cluster), with the arm from its centre of mass to the contact point p.
 ContactSide contact_side(const BodyStore& b, int i, double t, const Vec3& p, const Vec3& center) {
-  // (A compliant member's own centre velocity, not its slice's chord.)
-  const Vec3 v = is_compliant(b, i) ? track_velocity(b.track[i], t) : reference_velocity(b, i);
-  return ContactSide{1.0 / moving_mass(b, i), moving_inverse_inertia(b, i, t), p - moving_center(b, i, t, center), v,
-                     body_omega(b, i, t)};
+  return ContactSide{1.0 / moving_mass(b, i), moving_inverse_inertia(b, i, t), p - moving_center(b, i, t, center),
+                     moving_velocity(b, i, t), body_omega(b, i, t)};
 }
 }  // namespace
 
 void Simulation::touch(int b, double t, bool impulse) {
   if (const int cg = bodies_.cgroup[b]; cg >= 0) {
-    cut_group(cg, t);
     CompliantGroup& G = cgroups_[cg];
+    if (impulse && !(G.pending && G.ta == t)) {  // once per event
+      // Contact bursts: impulses less than burst_time after the previous one.
+      G.burst_count = t - G.burst_last < params_.compliant.burst_time ? G.burst_count + 1 : 1;
+      G.burst_last = t;
+    }
+    cut_group(cg, t);
     const int burst = params_.compliant.burst_contacts;
     if (impulse && burst > 0 && G.burst_count >= burst) {
       // The end of a contact burst: the cluster takes this impulse, and

@@ -166,6 +166,9 @@ class Simulation {
   void wake_cluster(int cluster, double t);
   void form_compliant_bond(int s, int l, int end, double t);
   IntegratorOptions integrator_options() const;
+  // Periodic boxes: a cluster wider than a quarter of the box ends the run
+  // with an error (minimum images would be ambiguous).
+  void check_cluster_extent(const char* kind, double extent, double t);
   void retire_integrator(CompliantGroup& g);
 
   SimParams params_;
