@@ -11,7 +11,9 @@
 
 namespace ringsim {
 
+using detail::axis_motion;
 using detail::concave_reach;
+using detail::own_motion;
 using detail::sphere_window;
 using detail::SweptSupport;
 using detail::wall_window_impl;
@@ -178,6 +180,19 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
       const double gap0 = n.dot(g.center_b - g.center_a), rate = n.dot(dv);
       auto lower = [&](double tau) { return gap0 + rate * tau - sa.at(tau) - sb.at(tau); };
       swept_to = s + concave_reach(lower, target, std::max((d - target) / bound, min_step(bound)), end - s, &plane_evaluations_);
+    }
+    // Two linkers side to side: the plane normal to both axes has no kink
+    // (crossed_axes.hpp) and converges like Newton's method.
+    if (si.shape == Shape::Linker && sj.shape == Shape::Linker) {
+      const CrossedAxesPlane xp(axis_motion(b_, i, s, own_motion(b_, i, s)), axis_motion(b_, j, s, own_motion(b_, j, s)),
+                                g.center_b - g.center_a);
+      if (xp.usable() && xp.value() > stop) {
+        const double h = xp.step(target, end - s);
+        if (h > (d - target) / bound) {
+          s = std::max(s + h, swept_to);
+          continue;
+        }
+      }
     }
     const RankedNormals r = rank_normals(i, j, s, g);
     // A contact on a linker's face or side: a plane turning with that linker

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/corotating_plane.hpp"
+#include "core/crossed_axes.hpp"
 #include "core/motion.hpp"
 #include "core/pose.hpp"
 #include "core/prediction.hpp"
@@ -12,6 +13,7 @@
 
 namespace ringsim {
 
+using detail::axis_motion;
 using detail::concave_reach;
 using detail::point_motion;
 using detail::PointMotion;
@@ -19,6 +21,8 @@ using detail::quadratic_reach;
 using detail::sphere_window;
 using detail::SweptSupport;
 using detail::wall_window_impl;
+using detail::OwnMotion;
+using detail::own_motion;
 
 bool Predictor::wall_window(double x, double v, int dir, double reach, double t, double* start, double* end) const {
   return wall_window_impl(box_.length, x, v, dir, reach, t, start, end);
@@ -58,12 +62,24 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       const RankedNormals r = rank_normals(i, j, s, g);
       if (!g.certified) proven = r.value[r.best];
       normal = r.normal[r.best];
-      // A contact on a linker's face or side with no rigid cluster involved: a
-      // plane turning with that linker, as in advance_pair; compliant members
-      // enter as their first-order motion plus its second-order remainder
-      // (one certified step from s: the remainder counts from there).
       const double stop = 0.75 * std::min(d, delta_);
-      if (b_.group[i] < 0 && b_.group[j] < 0 && r.feature >= 0 && r.value[r.feature] >= r.value[r.best] - 1e-12 &&
+      const OwnMotion mi = own_motion(b_, i, s), mj = own_motion(b_, j, s);
+      // Two linkers side to side: the plane normal to both axes (no kink).
+      if (b_.shape[i] == Shape::Linker && b_.shape[j] == Shape::Linker) {
+        const CrossedAxesPlane xp(axis_motion(b_, i, s, mi), axis_motion(b_, j, s, mj), g.center_b - g.center_a);
+        if (xp.usable() && xp.value() > stop) {
+          const double h = xp.step(target, end - s);
+          if (h > (d - target) / bound) {
+            s += h;
+            continue;
+          }
+        }
+      }
+      // A contact on a linker's face or side: a plane turning with that
+      // linker, as in advance_pair; cluster members (rigid or compliant) enter
+      // as their first-order motion plus its second-order remainder (one
+      // certified step from s: the remainder counts from there).
+      if (r.feature >= 0 && r.value[r.feature] >= r.value[r.best] - 1e-12 &&
           r.value[r.feature] > stop) {
         const int x = r.owner[r.feature] == 1 ? i : j;
         if (b_.shape[x] == Shape::Linker) {
@@ -71,16 +87,19 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
           const Vec3 n0 = x == i ? r.normal[r.feature] : Vec3(-r.normal[r.feature]);
           const Vec3 dxy = x == i ? Vec3(g.center_b - g.center_a) : Vec3(g.center_a - g.center_b);
           auto first_order = [&](int b, const Vec3& c) {
-            Kinematics k = make_kinematics(c, ref_motion(b_, b, s).v, body_axis(b_, b, s));
+            const OwnMotion& m = b == i ? mi : mj;
+            Kinematics k = make_kinematics(c, m.v, body_axis(b_, b, s));
             k.t = s;
-            k.precession = local_motion(b_, b, s).omega;
+            k.precession = m.omega;
             return k;
           };
+          // Free bodies turn exactly as the frozen rotation: no remainder.
           CorotatingPlane::Remainder rem;
           auto remainder = [&](int b, double* c, double* a) {
-            if (!is_compliant(b_, b)) return;
-            *c = b_.track[b].center_accel;
-            *a = b_.shape[b] == Shape::Linker ? b_.track[b].axis_accel : 0.0;
+            if (!in_cluster(b_, b)) return;
+            const OwnMotion& m = b == i ? mi : mj;
+            *c = m.center_accel;
+            *a = b_.shape[b] == Shape::Linker ? m.turning_accel : 0.0;
           };
           remainder(x, &rem.c_x, &rem.a_x);
           remainder(y, &rem.c_y, &rem.a_y);

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/crossed_axes.hpp"
 #include "core/pose.hpp"
 #include "core/prediction.hpp"
 #include "core/vec.hpp"
@@ -158,6 +159,41 @@ inline PointMotion point_motion(const BodyStore& b, int i, double s, const Vec3&
   }
   const Vec3 r = x - ref;
   return {reference_velocity(b, i) + lm.omega.cross(r), 0.5 * lm.accel * r.norm()};
+}
+
+// Body i's first-order motion at s about its own centre: the centre's
+// velocity and the solid's angular velocity (LocalMotion), with bounds on the
+// second order that hold up to its motion horizon: the centre's acceleration
+// (a compliant member's track bound; a rigid member's centre turns about the
+// cluster's centre of mass at distance reach, |x''| <= accel reach; a free
+// body's centre moves on a line) and the turning's, |Omega'| + |Omega|^2 >= |u''|
+// (LocalMotion's accel).
+struct OwnMotion {
+  Vec3 v, omega;
+  double center_accel, turning_accel;
+};
+inline OwnMotion own_motion(const BodyStore& b, int i, double s) {
+  const RefMotion m = ref_motion(b, i, s);
+  const LocalMotion l = local_motion(b, i, s);
+  // ref_motion's offset = reference point - centre (a rigid member's
+  // reference point is its cluster's centre of mass).
+  const Vec3 v = m.v - l.omega.cross(m.offset);
+  double c = 0.0;
+  if (is_compliant(b, i)) c = b.track[i].center_accel;
+  else if (b.group[i] >= 0) c = l.accel * b.reach[i];
+  return {v, l.omega, c, l.accel};
+}
+
+// A linker's data for CrossedAxesPlane (core/crossed_axes.hpp) at s.
+inline AxisMotion axis_motion(const BodyStore& b, int i, double s, const OwnMotion& m) {
+  AxisMotion a;
+  a.u = body_axis(b, i, s);
+  a.v = m.v;
+  a.du = m.omega.cross(a.u);
+  a.center_accel = m.center_accel;
+  a.axis_accel = m.turning_accel;
+  a.radius = b.sp(i).radius;
+  return a;
 }
 
 }  // namespace detail

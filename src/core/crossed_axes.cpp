@@ -1,0 +1,73 @@
+#include "core/crossed_axes.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace ringsim {
+
+CrossedAxesPlane::CrossedAxesPlane(const AxisMotion& x, const AxisMotion& y, const Vec3& dx) {
+  const Vec3 w = x.u.cross(y.u);
+  rho0_ = w.norm();
+  if (!usable()) return;
+  Vec3 m = w / rho0_;
+  if (m.dot(dx) < 0.0) m = -m;  // sigma: from X towards Y
+  const Vec3 dv = y.v - x.v;
+  // w' = u_X' x u_Y + u_X x u_Y'; m' = (w' - m (m.w')) / |w| (the sign of m
+  // carried by w' along with w).
+  const double sigma = m.dot(w) > 0.0 ? 1.0 : -1.0;
+  const Vec3 dw = sigma * (x.du.cross(y.u) + x.u.cross(y.du));
+  const Vec3 dm = (dw - m * m.dot(dw)) / rho0_;
+  s0_ = m.dot(dx) - x.radius - y.radius;
+  rate0_ = dm.dot(dx) + m.dot(dv);
+  d_norm_ = dx.norm();
+  dv_norm_ = dv.norm();
+  c_ = x.center_accel + y.center_accel;
+  wx0_ = x.du.norm();
+  wy0_ = y.du.norm();
+  ax_ = x.axis_accel;
+  ay_ = y.axis_accel;
+}
+
+double CrossedAxesPlane::curvature_bound(double h) const {
+  const double wx = wx0_ + ax_ * h, wy = wy0_ + ay_ * h;
+  const double dw = wx + wy;
+  const double rho = rho0_ - dw * h;
+  if (rho < 0.25 * rho0_) return std::numeric_limits<double>::infinity();
+  const double ddw = ax_ + ay_ + 2.0 * wx * wy;
+  const double dm = dw / rho, ddm = 2.0 * ddw / rho + 5.0 * dw * dw / (rho * rho);
+  const double D = d_norm_ + dv_norm_ * h + 0.5 * c_ * h * h, dD = dv_norm_ + c_ * h;
+  return ddm * D + 2.0 * dm * dD + c_;
+}
+
+double CrossedAxesPlane::step(double target, double h_max) const {
+  if (!usable() || s0_ <= target || !(h_max > 0.0)) return 0.0;
+  // The largest tau with s0 + r tau - M tau^2 / 2 >= target, for the bound M
+  // valid over a step of length h: certified up to min(h, tau).
+  auto reach = [&](double h) {
+    const double M = curvature_bound(h);
+    if (!std::isfinite(M)) return 0.0;
+    const double r = rate0_, e = s0_ - target;
+    if (M <= 0.0) return r >= 0.0 ? h : e / -r;
+    return (r + std::sqrt(r * r + 2.0 * M * e)) / M;
+  };
+  // A first trial that keeps |w| well away from zero; if the bound certifies
+  // less than the trial, that much is certified (M(h) holds on [0, h]);
+  // otherwise grow the trial geometrically while it is certified whole.
+  const double turn = wx0_ + wy0_;
+  const double h0 = std::min(h_max, turn > 0.0 ? 0.25 * rho0_ / turn : h_max);
+  const double r0 = reach(h0);
+  if (r0 < h0) return r0;
+  double best = h0;
+  for (int k = 0; k < 40 && best < h_max; ++k) {
+    const double trial = std::min(h_max, 2.0 * best);
+    const double r = reach(trial);
+    if (r < trial) {
+      if (r > best) best = r;
+      break;
+    }
+    best = trial;
+  }
+  return best;
+}
+
+}  // namespace ringsim
