@@ -123,6 +123,7 @@ int main(int argc, char** argv) {
     ref_opt.atol = 1e-14;
     ref_opt.max_steps = 10000000;
     ref_opt.linear_solver = LinearSolver::Dense;
+    ref_opt.time_rhs = true;
     const Run ref = run_once(chain, ref_opt, span);
     if (!ref.result.ok()) {
       std::fprintf(stderr, "reference failed at k = %g: %s\n", k, ref.result.reason.c_str());
@@ -134,6 +135,7 @@ int main(int argc, char** argv) {
     for (const Variant& v : variants) {
       IntegratorOptions o;
       o.method = v.method;
+      o.time_rhs = true;
       o.linear_solver = v.solver;
       Run best;
       double wall = 1e300;
@@ -160,6 +162,7 @@ int main(int argc, char** argv) {
     for (const LinearSolver ls : {LinearSolver::Dense, LinearSolver::Band}) {
       IntegratorOptions o;
       o.linear_solver = ls;
+      o.time_rhs = true;
       Run best;
       double wall = 1e300;
       for (int rep = 0; rep < repeat; ++rep) {

@@ -4,8 +4,12 @@
 # machine noise hits both alike; the share of Scenario 5's time inside
 # SUNDIALS. docs/COMPLIANT.md, "Coupling: cost".
 #
-# usage: bench/bench_compliant_scenario.sh RINGSIM T_MAX SEEDS [TIMEOUT_S]
+# usage: bench/bench_compliant_scenario.sh RINGSIM T_MAX SEEDS [TIMEOUT_S] [JOBS]
 #   e.g. bench/bench_compliant_scenario.sh ./build/ringsim 100 10
+#        bench/bench_compliant_scenario.sh ./build/ringsim full 8 900 2
+#   T_MAX  a horizon (steady-state stop off), or `full`: the replicate
+#          protocol itself (MSER steady state or run.t_max = 5000)
+#   JOBS   replicates run at once (default 1; rows in completion order)
 # Prints one CSV row per replicate, then the medians and their ratio.
 # Extra overrides for both scenarios: RINGSIM_SET="run.contact_tolerance=1e-6 ..."
 set -euo pipefail
@@ -13,21 +17,23 @@ ringsim=${1:?ringsim binary}
 t_max=${2:?t_max}
 seeds=${3:?number of seeds}
 limit=${4:-600}
+jobs=${5:-1}
 here=$(cd "$(dirname "$0")/.." && pwd)
-s4="$here/jobs/scenarios/4-passive-selection.toml"
-s5="$here/jobs/scenarios/5-compliant.toml"
 py=/usr/bin/python3
 out=$(mktemp)
-trap 'rm -f "$out"' EXIT
-echo "scenario,seed,wall_s,events,collisions,bonds,sundials_s,slices,cuts,relaxed,bursts,termination"
-for seed in $(seq 1 "$seeds"); do
-  for sc in "$s4" "$s5"; do
-    name=$(basename "$sc" .toml)
-    extra=()
-    for kv in ${RINGSIM_SET:-}; do extra+=(--set "$kv"); done
-    if timeout "$limit" "$ringsim" replicate "$sc" --seed "$seed" --set run.t_max="$t_max" --set run.steady_state=false \
-        "${extra[@]}" --json > "$out" 2>/dev/null; then
-      "$py" - "$name" "$seed" "$out" <<'PY'
+trap 'rm -f "$out" "$out.csv"' EXIT
+horizon=()
+[[ $t_max != full ]] && horizon=(--set run.t_max="$t_max" --set run.steady_state=false)
+extra=()
+for kv in ${RINGSIM_SET:-}; do extra+=(--set "$kv"); done
+
+# One replicate: scenario name and seed in, one CSV row out.
+run_one() {
+  local name=$1 seed=$2 json
+  json=$(mktemp)
+  if timeout "$limit" "$ringsim" replicate "$here/jobs/scenarios/$name.toml" --seed "$seed" "${horizon[@]}" \
+      "${extra[@]}" --json > "$json" 2>/dev/null; then
+    "$py" - "$name" "$seed" "$json" <<'PY'
 import json, sys
 name, seed, path = sys.argv[1], sys.argv[2], sys.argv[3]
 j = json.loads(open(path).readline())
@@ -36,11 +42,20 @@ print(",".join(str(x) for x in [name, seed, round(j["wall_seconds"], 4), j["even
       round(c.get("sundials_seconds", 0.0), 4), c.get("slices", 0), c.get("slice_cuts", 0), c.get("relaxed", 0),
       c.get("bursts", 0), j["termination"]]))
 PY
-    else
-      echo "$name,$seed,>$limit,,,,,,,,,timeout"
-    fi
-  done
-done | tee "$out.csv"
+  else
+    echo "$name,$seed,>$limit,,,,,,,,,timeout"
+  fi
+  rm -f "$json"
+}
+export -f run_one
+export ringsim here limit py
+export horizon_flat="${horizon[*]:-}" extra_flat="${extra[*]:-}"
+
+echo "scenario,seed,wall_s,events,collisions,bonds,sundials_s,slices,cuts,relaxed,bursts,termination"
+for seed in $(seq 1 "$seeds"); do
+  echo "4-passive-selection $seed"
+  echo "5-compliant $seed"
+done | xargs -P "$jobs" -L 1 bash -c 'horizon=($horizon_flat); extra=($extra_flat); run_one "$0" "$1"' | tee "$out.csv"
 "$py" - "$out.csv" <<'PY'
 import csv, statistics, sys
 rows = list(csv.reader(open(sys.argv[1])))
@@ -55,4 +70,3 @@ if w4 and w5:
     print(f"# median wall: scenario 4 {m4:.3f} s, scenario 5 {m5:.3f} s, ratio {m5 / m4:.2f}; "
           f"SUNDIALS share of scenario 5 (median) {100 * share:.1f} %; timeouts {timeouts}")
 PY
-rm -f "$out.csv"

@@ -12,6 +12,7 @@
 #include "core/cluster.hpp"
 #include "core/motion.hpp"
 #include "core/pose.hpp"
+#include "core/prediction.hpp"
 #include "core/scene.hpp"
 #include "core/simulation.hpp"
 #include "core/validation.hpp"
@@ -159,6 +160,53 @@ TEST(RigidMerge, ConservesMomentumAndAngularMomentumAndNeverGainsEnergy) {
     EXPECT_NEAR((body_center(b, 0, 9.0) - body_center(b, 2, 9.0)).norm(), d02, 1e-10);
     EXPECT_NEAR(body_axis(b, 2, 9.0).dot(body_axis(b, 3, 9.0)), body_axis(b, 2, 1.1).dot(body_axis(b, 3, 1.1)), 1e-10);
   }
+}
+
+// Two rigid clusters resting against each other (Scenario 5, seed 2,
+// t = 4598: a sphere of one cluster 1.3e-8 from the side of the other's
+// linker, both turning slowly): the search must follow the gap with
+// second-order steps (the linker's side normal turning with it,
+// CorotatingPlane, with the rigid members' second-order remainder), not
+// crawl at gap / (Lipschitz bound). (In that replicate the sphere's radial
+// normal tied with the linker's side normal and was picked, leaving the
+// crawl; the search now prefers the linker's. This scene does not reproduce
+// the exact tie.) Here
+// A = S0 + L0 spins about z (S0 and L0 on the z line), B = S1 + L1 about x
+// (on the x line): the gap stays 1.3e-8 for ever.
+TEST(RestingContact, ClustersTouchingAtRestAreSearchedWithFewSteps) {
+  SimParams p = bonding_params();
+  const Species S = make_species(Shape::Sphere, p), L = make_species(Shape::Linker, p);
+  const double bond = L.half_length + S.radius + 0.05;  // centre distance of a bonded end
+  const double gap = 1.3e-8, w = 0.006;
+  const Vec3 l1(20.0, 20.0, 20.0);
+  const Vec3 s0 = l1 + Vec3(0.0, 0.0, L.radius + S.radius + gap);
+  std::vector<Init> init = {
+      {Shape::Sphere, s0, kZero, Vec3::UnitZ(), Vec3(0.0, 0.0, w)},
+      {Shape::Sphere, l1 + Vec3(bond, 0.0, 0.0), kZero, Vec3::UnitZ(), Vec3(w, 0.0, 0.0)},
+      {Shape::Linker, s0 + Vec3(0.0, 0.0, bond), kZero, Vec3::UnitZ(), Vec3(0.0, 0.0, w)},
+      {Shape::Linker, l1, kZero, Vec3::UnitX(), Vec3(w, 0.0, 0.0)},
+  };
+  BodyStore b = make_bodies(p, init);
+  b.group.assign(4, -1);
+  b.offset.assign(4, Vec3::Zero());
+  b.body_axis.assign(4, Vec3::UnitZ());
+  b.reach.assign(4, 0.0);
+  b.cgroup.assign(4, -1);
+  b.track.assign(4, Track{});
+  const Box box{40.0, false};
+  merge_groups(b, box, 0, 2, 0.0);  // A
+  merge_groups(b, box, 1, 3, 0.0);  // B
+  Predictor pred(b, box, p.run.contact_tolerance);
+  const double horizon = 20.0;
+  EXPECT_EQ(pred.pair(0, 3, 0.0, horizon, body_center(b, 0, 0.0)), kNever);
+  EXPECT_FALSE(pred.failed());
+  // the gap really is constant (no contact was missed)
+  for (double t : {0.0, 5.0, 10.0, 20.0})
+    EXPECT_NEAR(pred.contact_geometry(0, 3, t).sep.distance, gap, 1e-12) << "t " << t;
+  // ~2 000 with second-order steps; a crawl at gap / bound needs ~10^7
+  EXPECT_LT(pred.search_counts().cluster_pair, 20000u);
+  std::printf("resting contact over %g time units: %llu distance evaluations\n", horizon,
+              static_cast<unsigned long long>(pred.search_counts().cluster_pair));
 }
 
 // A perfect square (MODEL.md target): corner spheres S0..S3, linkers L0..L3

@@ -50,11 +50,14 @@ double CrossedAxesPlane::step(double target, double h_max) const {
     if (M <= 0.0) return r >= 0.0 ? h : e / -r;
     return (r + std::sqrt(r * r + 2.0 * M * e)) / M;
   };
-  // A first trial that keeps |w| well away from zero; if the bound certifies
-  // less than the trial, that much is certified (M(h) holds on [0, h]);
-  // otherwise grow the trial geometrically while it is certified whole.
-  const double turn = wx0_ + wy0_;
-  const double h0 = std::min(h_max, turn > 0.0 ? 0.25 * rho0_ / turn : h_max);
+  // A first trial that keeps |w| >= rho0 / 2, (turn + A h) h <= rho0 / 2, so
+  // that M is finite; if the bound certifies less than the trial, that much
+  // is certified (M(h) holds on [0, h]); otherwise grow the trial
+  // geometrically while it is certified whole.
+  const double turn = wx0_ + wy0_, accel = ax_ + ay_;
+  double h0 = h_max;
+  if (accel > 0.0) h0 = std::min(h0, 2.0 * (0.5 * rho0_) / (turn + std::sqrt(turn * turn + 4.0 * accel * 0.5 * rho0_)));
+  else if (turn > 0.0) h0 = std::min(h0, 0.5 * rho0_ / turn);
   const double r0 = reach(h0);
   if (r0 < h0) return r0;
   double best = h0;

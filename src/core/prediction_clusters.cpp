@@ -79,37 +79,42 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       // linker, as in advance_pair; cluster members (rigid or compliant) enter
       // as their first-order motion plus its second-order remainder (one
       // certified step from s: the remainder counts from there).
-      if (r.feature >= 0 && r.value[r.feature] >= r.value[r.best] - 1e-12 &&
-          r.value[r.feature] > stop) {
-        const int x = r.owner[r.feature] == 1 ? i : j;
-        if (b_.shape[x] == Shape::Linker) {
-          const int y = x == i ? j : i;
-          const Vec3 n0 = x == i ? r.normal[r.feature] : Vec3(-r.normal[r.feature]);
-          const Vec3 dxy = x == i ? Vec3(g.center_b - g.center_a) : Vec3(g.center_a - g.center_b);
-          auto first_order = [&](int b, const Vec3& c) {
-            const OwnMotion& m = b == i ? mi : mj;
-            Kinematics k = make_kinematics(c, m.v, body_axis(b_, b, s));
-            k.t = s;
-            k.precession = m.omega;
-            return k;
-          };
-          // Free bodies turn exactly as the frozen rotation: no remainder.
-          CorotatingPlane::Remainder rem;
-          auto remainder = [&](int b, double* c, double* a) {
-            if (!in_cluster(b_, b)) return;
-            const OwnMotion& m = b == i ? mi : mj;
-            *c = m.center_accel;
-            *a = b_.shape[b] == Shape::Linker ? m.turning_accel : 0.0;
-          };
-          remainder(x, &rem.c_x, &rem.a_x);
-          remainder(y, &rem.c_y, &rem.a_y);
-          const Vec3 cx = x == i ? g.center_a : g.center_b, cy = x == i ? g.center_b : g.center_a;
-          const CorotatingPlane cp(first_order(x, cx), b_.sp(x), first_order(y, cy), b_.sp(y), n0, dxy, s, rem);
-          const double reached = cp.advance(s, end, target, stop, &plane_evaluations_, 1);
-          if (reached - s > (d - target) / bound) {
-            s = reached;
-            continue;
-          }
+      // The face or side normal of a linker among the tightest planes (a
+      // sphere's radial normal often ties with it and does not turn).
+      int face = -1;
+      for (int q = 0; q < r.count; ++q) {
+        if (r.owner[q] == 0 || b_.shape[r.owner[q] == 1 ? i : j] != Shape::Linker) continue;
+        if (r.value[q] < r.value[r.best] - 1e-12 || r.value[q] <= stop) continue;
+        if (face < 0 || r.value[q] > r.value[face]) face = q;
+      }
+      if (face >= 0) {
+        const int x = r.owner[face] == 1 ? i : j;
+        const int y = x == i ? j : i;
+        const Vec3 n0 = x == i ? r.normal[face] : Vec3(-r.normal[face]);
+        const Vec3 dxy = x == i ? Vec3(g.center_b - g.center_a) : Vec3(g.center_a - g.center_b);
+        auto first_order = [&](int b, const Vec3& c) {
+          const OwnMotion& m = b == i ? mi : mj;
+          Kinematics k = make_kinematics(c, m.v, body_axis(b_, b, s));
+          k.t = s;
+          k.precession = m.omega;
+          return k;
+        };
+        // Free bodies turn exactly as the frozen rotation: no remainder.
+        CorotatingPlane::Remainder rem;
+        auto remainder = [&](int b, double* c, double* a) {
+          if (!in_cluster(b_, b)) return;
+          const OwnMotion& m = b == i ? mi : mj;
+          *c = m.center_accel;
+          *a = b_.shape[b] == Shape::Linker ? m.turning_accel : 0.0;
+        };
+        remainder(x, &rem.c_x, &rem.a_x);
+        remainder(y, &rem.c_y, &rem.a_y);
+        const Vec3 cx = x == i ? g.center_a : g.center_b, cy = x == i ? g.center_b : g.center_a;
+        const CorotatingPlane cp(first_order(x, cx), b_.sp(x), first_order(y, cy), b_.sp(y), n0, dxy, s, rem);
+        const double reached = cp.advance(s, end, target, stop, &plane_evaluations_, 1);
+        if (reached - s > (d - target) / bound) {
+          s = reached;
+          continue;
         }
       }
     }
