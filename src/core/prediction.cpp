@@ -139,9 +139,17 @@ ContactGeometry Predictor::contact_geometry(int i, int j, double t) const {
 }
 
 double Predictor::approach_rate(int i, int j, double t, const ContactGeometry& g) const {
-  const Vec3 ua = shape_point_velocity(b_, i, t, g.sep.point_a, g.center_a);
-  const Vec3 ub = shape_point_velocity(b_, j, t, g.sep.point_b, g.center_b);
-  return g.sep.normal.dot(ub - ua);
+  // In the frame the impulse will use (contact_frame: polished normal, point
+  // on both axis planes, where a linker's spin has no normal component), so
+  // that a contact found approaching is answered by a push. With the closest
+  // points' normal instead, a pair meeting at a normal speed ~1e-10 could be
+  // "approaching" here and separating in the response frame, whose impulse
+  // then pulled it together: Scenario 5 replicates with two clusters at rest
+  // against each other met the same contact again and again at one instant.
+  const ContactFrame f = contact_frame(i, j, t, g);
+  const Vec3 ua = material_point_velocity(b_, i, t, f.point, g.center_a);
+  const Vec3 ub = material_point_velocity(b_, j, t, f.point, g.center_b);
+  return f.normal.dot(ub - ua);
 }
 
 double Predictor::advance_pair(int i, int j, double t, double limit) {

@@ -360,27 +360,14 @@ void Simulation::process_collision(int i, int j, double t) {
     if (law.restitution < 1.0) ++stats_.tc_collisions;
     law.restitution = 1.0;
   }
-  ContactResult r = solve_contact(a, b, frame.normal, law);
-  if (r.impulse.dot(frame.normal) <= 0.0) {
-    // The response frame (polished normal and point) sees the pair already
-    // separating while the prediction's normal saw it approaching: both
-    // within rounding of a contact met at a normal speed ~1e-10 or less.
-    // An impulse along the frame would then pull the bodies together and the
-    // pair would collide again at once, losing speed every time (measured:
-    // Scenario 5, seed 4, t = 4418, two clusters at rest against each other,
-    // 30 000 collisions per time unit). Respond along the prediction's
-    // normal at the middle of its closest points instead: approaching there,
-    // so the impulse pushes, and the next prediction sees them separate.
-    const Vec3 q = 0.5 * (g.sep.point_a + g.sep.point_b);
-    const ContactSide a2 = contact_side(bodies_, i, t, q, g.center_a);
-    const ContactSide b2 = contact_side(bodies_, j, t, q, g.center_b);
-    r = solve_contact(a2, b2, g.sep.normal, law);
-    ++stats_.fallback_normals;
-    if (r.impulse.dot(g.sep.normal) > 0.0) {
-      apply_impulse(i, -r.impulse, a2.arm);
-      apply_impulse(j, r.impulse, b2.arm);
-    }
-  } else {
+  // The prediction fired because the pair approaches in this very frame
+  // (Predictor::approach_rate), so the impulse pushes them apart; unless
+  // touch() has just merged a compliant cluster at the end of a contact burst
+  // (an inelastic merge changes the members' velocities) and the pair no
+  // longer approaches: then no impulse (one would pull), and the next
+  // prediction, in the same frame, sees them separate.
+  const ContactResult r = solve_contact(a, b, frame.normal, law);
+  if (r.impulse.dot(frame.normal) > 0.0) {
     apply_impulse(i, -r.impulse, a.arm);
     apply_impulse(j, r.impulse, b.arm);
   }
