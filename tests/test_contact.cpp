@@ -287,5 +287,55 @@ TEST(WallContact, SphereReflectsWithWallRestitution) {
   expect_vec_near(sim.bodies().kin[0].v, {-0.5, 0, 0}, 1e-15);
 }
 
+// run.min_separation_speed (ContactLaw::min_separation): a contact met at a
+// normal speed far below the floor leaves at the floor, by a normal top-up
+// whose energy is exactly (u'^2 - u^2) / (2 K_nn); ordinary contacts are
+// untouched; the floor off gives Newton's law.
+TEST(ContactFloor, TopsUpATinySeparationSpeedAndLeavesOrdinaryContactsAlone) {
+  const Vec3 n = Vec3::UnitZ();
+  Mat3 ia = Mat3::Identity() * 2.5, ib = Mat3::Identity() * 0.8;
+  ib(0, 1) = ib(1, 0) = 0.1;
+  const ContactSide a0{1.0, ia, Vec3(0.3, -0.2, 0.5), Vec3(0.1, 0.0, 0.0), Vec3(0.0, 0.2, 0.0)};
+  auto kinetic = [&](const ContactSide& a, const ContactSide& b, const Vec3& J) {
+    // kinetic energy of the two bodies (the sides' inverse mass and inertia)
+    // after the impulse J on B and -J on A
+    const Vec3 va = a.v - a.inv_mass * J, vb = b.v + b.inv_mass * J;
+    const Vec3 wa = a.omega - a.inv_inertia * a.arm.cross(J), wb = b.omega + b.inv_inertia * b.arm.cross(J);
+    auto e = [](double im, const Mat3& ii, const Vec3& v, const Vec3& w) {
+      return 0.5 * v.squaredNorm() / im + 0.5 * w.dot(ii.inverse() * w);
+    };
+    return e(a.inv_mass, a.inv_inertia, va, wa) + e(b.inv_mass, b.inv_inertia, vb, wb);
+  };
+  auto normal_speed = [&](const ContactSide& a, const ContactSide& b, const Vec3& J) {
+    const Vec3 ua = a.v - a.inv_mass * J + (a.omega - a.inv_inertia * a.arm.cross(J)).cross(a.arm);
+    const Vec3 ub = b.v + b.inv_mass * J + (b.omega + b.inv_inertia * b.arm.cross(J)).cross(b.arm);
+    return n.dot(ub - ua);
+  };
+  for (const double un : {-1e-12, -3e-7, -1.0}) {
+    // B's centre velocity chosen so that the contact's normal speed is un
+    ContactSide b{0.5, ib, Vec3(-0.1, 0.4, -0.5), Vec3::Zero(), Vec3(0.1, 0.0, 0.3)};
+    b.v.z() += un - normal_speed(a0, b, Vec3::Zero());
+    ASSERT_NEAR(normal_speed(a0, b, Vec3::Zero()), un, 1e-15);
+    const ContactResult newton = solve_contact(a0, b, n, ContactLaw{1.0, 0.0, 0.0, 0.0});
+    EXPECT_FALSE(newton.floored);
+    EXPECT_NEAR(normal_speed(a0, b, newton.impulse), -un, 1e-15);
+    const ContactResult r = solve_contact(a0, b, n, ContactLaw{1.0, 0.0, 0.0, 1e-6});
+    const double after = normal_speed(a0, b, r.impulse);
+    if (-un < 1e-6) {
+      EXPECT_TRUE(r.floored) << un;
+      EXPECT_NEAR(after, 1e-6, 1e-15) << un;
+      const double e0 = kinetic(a0, b, Vec3::Zero()), e1 = kinetic(a0, b, r.impulse);
+      const double knn = r.impulse.norm() / (after - un);  // j = (u' - u) / K_nn
+      // (a difference of two O(1) energies: rounding ~1e-16 each)
+      EXPECT_NEAR(e1 - e0, (after * after - un * un) / (2.0 / knn), 1e-15) << un;
+      EXPECT_LT(e1 - e0, 1e-11);
+    } else {
+      EXPECT_FALSE(r.floored);
+      EXPECT_NEAR(after, -un, 1e-12);
+      EXPECT_EQ(r.impulse, newton.impulse);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ringsim

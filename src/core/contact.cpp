@@ -24,11 +24,18 @@ double combine(CombineRule rule, double a, double b) {
   return a;
 }
 
-ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law) {
+namespace {
+
+Mat3 collision_matrix(const ContactSide& a, const ContactSide& b) {
+  const Mat3 ra = cross_matrix(a.arm), rb = cross_matrix(b.arm);
+  return (a.inv_mass + b.inv_mass) * Mat3::Identity() - ra * a.inv_inertia * ra - rb * b.inv_inertia * rb;
+}
+
+// Newton restitution and impulsive Coulomb friction (the header's laws).
+ContactResult newton_coulomb(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law) {
   const Vec3 u = point_velocity(b) - point_velocity(a);
   const double un = n.dot(u);
-  const Mat3 ra = cross_matrix(a.arm), rb = cross_matrix(b.arm);
-  const Mat3 K = (a.inv_mass + b.inv_mass) * Mat3::Identity() - ra * a.inv_inertia * ra - rb * b.inv_inertia * rb;
+  const Mat3 K = collision_matrix(a, b);
   const double e = law.restitution;
 
   const Vec3 ut = u - un * n;
@@ -51,6 +58,21 @@ ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Ve
   }
   const double j = -(1.0 + e) * un / n.dot(K * n);
   return {j * n, ContactMode::Smooth};
+}
+
+}  // namespace
+
+ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law) {
+  ContactResult r = newton_coulomb(a, b, n, law);
+  if (law.min_separation > 0.0 && law.restitution >= 1.0) {
+    const Mat3 K = collision_matrix(a, b);
+    const double un_after = n.dot(point_velocity(b) - point_velocity(a) + K * r.impulse);
+    if (un_after < law.min_separation) {
+      r.impulse += ((law.min_separation - un_after) / n.dot(K * n)) * n;
+      r.floored = true;
+    }
+  }
+  return r;
 }
 
 }  // namespace ringsim

@@ -32,6 +32,13 @@ struct ContactLaw {
   double restitution;
   double static_friction;
   double dynamic_friction;
+  // Floor of the normal separation speed after an elastic (e = 1) impulse
+  // (0 = none): a top-up along n when Newton's law leaves n.u' below it
+  // (inelastic contacts keep their law; the TC model makes quick repeats
+  // elastic, and so floored). Resting contacts
+  // of two turning bodies otherwise bounce at ~1e-12 for ever, inside the
+  // contact band (docs/ARCHITECTURE.md, "Contact response").
+  double min_separation = 0.0;
 };
 
 enum class ContactMode { Smooth, Stick, Slide };
@@ -39,6 +46,7 @@ enum class ContactMode { Smooth, Stick, Slide };
 struct ContactResult {
   Vec3 impulse;      // on B
   ContactMode mode;
+  bool floored = false;  // the separation-speed floor added to the impulse
 };
 
 ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law);

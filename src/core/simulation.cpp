@@ -360,19 +360,23 @@ void Simulation::process_collision(int i, int j, double t) {
     if (law.restitution < 1.0) ++stats_.tc_collisions;
     law.restitution = 1.0;
   }
+  law.min_separation = params_.run.min_separation_speed;
   // The prediction fired because the pair approaches in this very frame
   // (Predictor::approach_rate), so the impulse pushes them apart; unless
   // touch() has just merged a compliant cluster at the end of a contact burst
   // (an inelastic merge changes the members' velocities) and the pair no
   // longer approaches: then no impulse (one would pull), and the next
   // prediction, in the same frame, sees them separate.
-  const ContactResult r = solve_contact(a, b, frame.normal, law);
-  if (r.impulse.dot(frame.normal) > 0.0) {
+  const Vec3& n = frame.normal;
+  const double un = n.dot(b.v + b.omega.cross(b.arm) - a.v - a.omega.cross(a.arm));
+  if (un < 0.0) {
+    const ContactResult r = solve_contact(a, b, n, law);
     apply_impulse(i, -r.impulse, a.arm);
     apply_impulse(j, r.impulse, b.arm);
+    if (r.mode == ContactMode::Stick) ++stats_.stick;
+    if (r.mode == ContactMode::Slide) ++stats_.slide;
+    if (r.floored) ++stats_.floored;
   }
-  if (r.mode == ContactMode::Stick) ++stats_.stick;
-  if (r.mode == ContactMode::Slide) ++stats_.slide;
   bump(i, t);
   bump(j, t);
   ++stats_.collisions;
@@ -398,7 +402,9 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
     if (law.restitution < 1.0) ++stats_.tc_collisions;
     law.restitution = 1.0;
   }
+  law.min_separation = params_.run.min_separation_speed;
   const ContactResult r = solve_contact(body, wall, n, law);
+  if (r.floored) ++stats_.floored;
   apply_impulse(i, -r.impulse, body.arm);
   ext_impulse_ -= r.impulse;
   ext_angular_ += p.cross(-r.impulse);

@@ -58,6 +58,7 @@ struct RunStats {
   std::int64_t stale = 0;            // invalidated events discarded
   std::int64_t memo_resumed = 0;     // pair searches resumed from an earlier proof
   std::int64_t tc_collisions = 0;    // contacts made elastic by the TC model
+  std::int64_t floored = 0;          // contacts topped up to run.min_separation_speed
   std::int64_t stick = 0, slide = 0; // frictional contact modes
   std::int64_t captures = 0;         // capture events taken (bond formed or not)
   std::int64_t bonds = 0;            // bonds formed (captures that passed the rules, ring closures)

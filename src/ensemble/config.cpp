@@ -395,6 +395,8 @@ const std::vector<KeyDesc>& key_table() {
           "gap at which a contact found without a closed form fires"),
       key<&S::run, &R::tc_time>("run.tc_time", at_least(0),
           "TC-model collision-time window (Luding & McNamara 1998) against inelastic collapse; 0 = off"),
+      key<&S::run, &R::min_separation_speed>("run.min_separation_speed", at_least(0),
+          "floor of the normal separation speed a contact leaves (stops resting contacts bouncing for ever inside the contact band); 0 = off"),
       key<&S::run, &R::cell_size>("run.cell_size", at_least(0),
           "edge of the neighbour-search cells; 0 = automatic"),
       key<&S::run, &R::validate>("run.validate", any(),

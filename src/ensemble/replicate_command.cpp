@@ -95,6 +95,7 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   j["stale_events"] = s.stale;
   j["memo_resumed"] = s.memo_resumed;
   j["tc_collisions"] = s.tc_collisions;
+  j["floored_contacts"] = s.floored;
   j["stick_contacts"] = s.stick;
   j["slide_contacts"] = s.slide;
   j["ca_steps"] = s.ca_steps;
@@ -253,7 +254,7 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
     out << "run\n";
     for (const char* k : {"seed", "spheres", "linkers", "packing_fraction", "mixing", "t_end", "termination", "events",
                           "collisions", "wall_collisions", "captures", "bonds", "closure_bonds", "rejected",
-                          "cell_crossings", "stale_events", "tc_collisions", "ca_steps", "wall_seconds",
+                          "cell_crossings", "stale_events", "tc_collisions", "floored_contacts", "ca_steps", "wall_seconds",
                           "events_per_second", "energy", "momentum"})
       row(k, j[k].dump());
     if (j.contains("compliant")) row("compliant", j["compliant"].dump());
