@@ -136,12 +136,7 @@ TEST(RigidMerge, ConservesMomentumAndAngularMomentumAndNeverGainsEnergy) {
       init.push_back({k < 2 ? Shape::Sphere : Shape::Linker, Vec3(10 + 6 * k, 15 + 3 * U(gen), 20 + 3 * U(gen)), rv(),
                       rv().normalized(), 2.0 * rv()});
     BodyStore b = make_bodies(p, init);
-    b.group.assign(4, -1);
-    b.offset.assign(4, Vec3::Zero());
-    b.body_axis.assign(4, Vec3::UnitZ());
-    b.reach.assign(4, 0.0);
-    b.cgroup.assign(4, -1);
-    b.track.assign(4, Track{});
+    b.free_all();
     const Box box{40.0, false};
     const MechanicalTotals before = mechanical_totals(b, 0.3);
     merge_groups(b, box, 0, 2, 0.3);
@@ -187,12 +182,7 @@ TEST(RestingContact, ClustersTouchingAtRestAreSearchedWithFewSteps) {
       {Shape::Linker, l1, kZero, Vec3::UnitX(), Vec3(w, 0.0, 0.0)},
   };
   BodyStore b = make_bodies(p, init);
-  b.group.assign(4, -1);
-  b.offset.assign(4, Vec3::Zero());
-  b.body_axis.assign(4, Vec3::UnitZ());
-  b.reach.assign(4, 0.0);
-  b.cgroup.assign(4, -1);
-  b.track.assign(4, Track{});
+  b.free_all();
   const Box box{40.0, false};
   merge_groups(b, box, 0, 2, 0.0);  // A
   merge_groups(b, box, 1, 3, 0.0);  // B

@@ -154,6 +154,18 @@ struct BodyStore {
 
   int size() const { return static_cast<int>(kin.size()); }
   const Species& sp(int i) const { return species[static_cast<int>(shape[i])]; }
+  // Every body free: no rigid or compliant cluster, nothing held aside.
+  void free_all() {
+    const int n = size();
+    group.assign(n, -1);
+    offset.assign(n, Vec3::Zero());
+    body_axis.assign(n, Vec3::UnitZ());
+    reach.assign(n, 0.0);
+    clusters.clear();
+    cgroup.assign(n, -1);
+    track.assign(n, Track{});
+    held_spin.assign(n, Vec3::Zero());
+  }
 };
 
 }  // namespace ringsim

@@ -77,14 +77,7 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   events_.assign(n, Event{});
   bodies_.counter.assign(n, 0);
   bodies_.last_collision.assign(n, -kNever);
-  bodies_.group.assign(n, -1);
-  bodies_.offset.assign(n, Vec3::Zero());
-  bodies_.body_axis.assign(n, Vec3::UnitZ());
-  bodies_.reach.assign(n, 0.0);
-  bodies_.clusters.clear();
-  bodies_.cgroup.assign(n, -1);
-  bodies_.track.assign(n, Track{});
-  bodies_.held_spin.assign(n, Vec3::Zero());
+  bodies_.free_all();
   compliant_ = params_.bonding.enabled && params_.compliant.enabled();
   cindex_.assign(n, -1);
   memo_.assign(n, {});
