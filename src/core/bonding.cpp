@@ -92,7 +92,9 @@ void Simulation::form_bond(int s, int l, int end, double t) {
     return g < 0 ? std::vector<int>{b} : bodies_.clusters[g].members;
   };
   const std::vector<int> side_s = members(s), side_l = members(l);
+  const double before = group_kinetic_energy(bodies_, s) + group_kinetic_energy(bodies_, l);
   const int g = merge_groups(bodies_, box_, s, l, t);
+  stats_.lost_rigid_merges += before - group_kinetic_energy(bodies_, s);
   std::vector<std::tuple<int, int, int>> closures;  // (sphere, linker, end)
   const double rc = params_.bonding.capture_distance;
   const double band = params_.run.contact_tolerance;

@@ -146,6 +146,14 @@ int merge_groups(BodyStore& b, const Box& box, int a, int other, double t) {
   return id;
 }
 
+double group_kinetic_energy(const BodyStore& b, int i) {
+  if (const int g = b.group[i]; g >= 0) {
+    const Cluster& c = b.clusters[g];
+    return 0.5 * c.mass * c.v.squaredNorm() + c.rot.energy();
+  }
+  return translational_energy(b.kin[i], b.sp(i)) + rotational_energy(b.kin[i], b.sp(i));
+}
+
 MechanicalTotals mechanical_totals(const BodyStore& b, double t) {
   MechanicalTotals r;
   for (int i = 0; i < b.size(); ++i) {

@@ -38,6 +38,10 @@ struct MechanicalTotals {
 };
 MechanicalTotals mechanical_totals(const BodyStore& b, double t);
 
+// Kinetic energy of what body i moves with: its rigid cluster, or i alone
+// when free (constant between events). Not for compliant-cluster members.
+double group_kinetic_energy(const BodyStore& b, int i);
+
 // Writes each cluster member's pose and velocity at t into its kin record
 // (wrapped centre, axis, centre velocity, the cluster's angular velocity as
 // `precession` with zero spin) for output and snapshots.

@@ -147,10 +147,11 @@ void Simulation::process_slice(int i, const Event& ev, double t) {
   for (int m : G.members) predict(m, t);
 }
 
-void Simulation::relax_group(int g, double t) {
+void Simulation::relax_group(int g, double t, bool burst) {
   CompliantGroup& G = cgroups_[g];
   const CompliantCluster& st = G.integ->state();
   G.frozen_potential = potential_energy(st);
+  const double before = kinetic_energy(st);
   for (std::size_t k = 0; k < G.members.size(); ++k) {
     const int m = G.members[k];
     CompliantBody b = st.bodies[k];
@@ -167,6 +168,9 @@ void Simulation::relax_group(int g, double t) {
   // energy and the spins' energy go).
   int cluster = -1;
   for (std::size_t k = 1; k < G.members.size(); ++k) cluster = merge_groups(bodies_, box_, G.members[0], G.members[k], t);
+  double after = group_kinetic_energy(bodies_, G.members[0]);
+  for (int m : G.members) after += 0.5 * bodies_.sp(m).i_perp * bodies_.held_spin[m].squaredNorm();
+  (burst ? stats_.lost_bursts : stats_.lost_relaxed) += before - after;
   retire_integrator(G);
   dormant_.resize(bodies_.clusters.size(), -1);
   dormant_[cluster] = g;
@@ -222,6 +226,7 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
     add_compliant_bond(st, cindex_[s], cindex_[l], end, bp);
     bond_energy_ += potential_energy(st) - before;
     G.model = st;
+    if (cluster_observer_) cluster_observer_(st, t);
     retire_integrator(G);
     G.integ = std::make_unique<ClusterIntegrator>(st, t, integrator_options());
     G.ta = t;
@@ -315,6 +320,7 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
   }
   bond_energy_ += potential_energy(nc) - before;
   G.model = nc;
+  if (cluster_observer_) cluster_observer_(nc, t);
   G.integ = std::make_unique<ClusterIntegrator>(nc, t, integrator_options());
   set_tracks(bodies_, G, nc.bodies, t, nc.bodies, t);  // exact at t until the slice begins
   G.ta = t;
@@ -331,11 +337,28 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
   }
 }
 
+EnergyBudget Simulation::energy_budget() const {
+  EnergyBudget e;
+  e.initial = initial_energy_;
+  e.bonds_in = bond_energy_;
+  e.kinetic = mechanical_totals(bodies_, now_).energy;
+  e.potential = compliant_potential(now_);
+  e.contacts = stats_.lost_contacts;
+  e.rigid_merges = stats_.lost_rigid_merges;
+  e.relaxed = stats_.lost_relaxed;
+  e.bursts = stats_.lost_bursts;
+  e.dampers = e.initial + e.bonds_in - e.kinetic - e.potential - e.contacts - e.rigid_merges - e.relaxed - e.bursts;
+  return e;
+}
+
 double Simulation::compliant_potential(double t) const {
   double e = 0.0;
-  for (const CompliantGroup& G : cgroups_) {
+  for (std::size_t g = 0; g < cgroups_.size(); ++g) {
+    const CompliantGroup& G = cgroups_[g];
     if (!G.alive) continue;
-    if (!G.integ) {  // relaxed: carried rigidly with its pose (and strain) frozen
+    // Relaxed: carried rigidly with its pose (and strain) frozen. (Not
+    // `!G.integ`: the end of a run retires every integrator, the tracks stay.)
+    if (bodies_.cgroup[G.members[0]] != static_cast<int>(g)) {
       e += G.frozen_potential;
       continue;
     }

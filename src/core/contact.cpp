@@ -75,4 +75,15 @@ ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Ve
   return r;
 }
 
+double impulse_energy_loss(const ContactSide& a, const ContactSide& b, const Vec3& J) {
+  auto point_velocity = [](const ContactSide& s) -> Vec3 { return s.v + s.omega.cross(s.arm); };
+  // Change of a side's contact-point velocity under impulse P on it.
+  auto response = [](const ContactSide& s, const Vec3& P) {
+    return Vec3(s.inv_mass * P + (s.inv_inertia * s.arm.cross(P)).cross(s.arm));
+  };
+  const Vec3 u = point_velocity(b) - point_velocity(a);
+  const Vec3 du = response(b, J) - response(a, -J);
+  return -J.dot(u + 0.5 * du);
+}
+
 }  // namespace ringsim

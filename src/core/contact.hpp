@@ -51,6 +51,14 @@ struct ContactResult {
 
 ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law);
 
+// Kinetic energy an impulse J on B (-J on A) takes out of the pair: with u the
+// relative velocity of the contact points (B minus A), before and after,
+// -J . (u- + u+) / 2, exact for rigid bodies: a body's energy changes by
+// dP . (v- + v+) / 2 + dL . (w- + w+) / 2 with dP = J, dL = arm x J, which sums
+// to J . (its contact point's velocity before + after) / 2. Negative when the
+// impulse adds energy.
+double impulse_energy_loss(const ContactSide& a, const ContactSide& b, const Vec3& J);
+
 double combine(CombineRule rule, double a, double b);
 
 }  // namespace ringsim

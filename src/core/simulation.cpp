@@ -82,6 +82,7 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   cindex_.assign(n, -1);
   memo_.assign(n, {});
   for (int i = 0; i < n; ++i) grid_.insert(i, bodies_.kin[i].x);
+  initial_energy_ = mechanical_totals(bodies_, 0.0).energy;  // every body free
   monitor_.set(0.0, graph_.N_t());
   if (params_.bonding.enabled) check_initial_captures();
   // Compliant clusters formed at t = 0 start their first slice.
@@ -311,7 +312,7 @@ void Simulation::touch(int b, double t, bool impulse) {
       // moves, as one rigid body (core/compliant_events.cpp).
       G.burst_count = 0;
       ++stats_.bursts;
-      relax_group(cg, t);
+      relax_group(cg, t, true);
       G.hold_until = t + params_.compliant.burst_time;
     }
     return;
@@ -364,6 +365,7 @@ void Simulation::process_collision(int i, int j, double t) {
   const double un = n.dot(b.v + b.omega.cross(b.arm) - a.v - a.omega.cross(a.arm));
   if (un < 0.0) {
     const ContactResult r = solve_contact(a, b, n, law);
+    stats_.lost_contacts += impulse_energy_loss(a, b, r.impulse);
     apply_impulse(i, -r.impulse, a.arm);
     apply_impulse(j, r.impulse, b.arm);
     if (r.mode == ContactMode::Stick) ++stats_.stick;
@@ -397,6 +399,7 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
   }
   law.min_separation = params_.run.min_separation_speed;
   const ContactResult r = solve_contact(body, wall, n, law);
+  stats_.lost_contacts += impulse_energy_loss(body, wall, r.impulse);
   if (r.floored) ++stats_.floored;
   apply_impulse(i, -r.impulse, body.arm);
   ext_impulse_ -= r.impulse;

@@ -21,6 +21,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <utility>
@@ -75,6 +76,27 @@ struct RunStats {
   std::int64_t sundials_steps = 0;   // integrator steps, all clusters
   std::int64_t sundials_rhs = 0;     // right-hand-side evaluations, all clusters
   double sundials_seconds = 0.0;     // wall time inside the integrators
+  // Energy ledger (Simulation::energy_budget): kinetic energy taken out by
+  // each discrete mechanism, summed over the run (negative = put in).
+  double lost_contacts = 0.0;        // body-body and wall impulses (restitution < 1, friction; the floor adds)
+  double lost_rigid_merges = 0.0;    // rigid bonds: perfectly inelastic merges
+  double lost_relaxed = 0.0;         // relaxed-cluster switches to rigid motion
+  double lost_bursts = 0.0;          // contact bursts ending in rigid motion
+};
+
+// Where the energy went, at the present time (docs/OUTPUT.md, "energy_budget"):
+// initial + bonds_in = kinetic + potential + the losses. Every term but
+// `dampers` is counted where it happens; `dampers` is the rest: the energy the
+// compliant dampers took out (MODEL.md, "Two bond regimes"), plus the
+// integrators' error (rtol) and the separation floor's additions (tiny). In a
+// run without compliant bonds it is round-off only.
+struct EnergyBudget {
+  double initial = 0.0;    // kinetic energy at t = 0
+  double bonds_in = 0.0;   // potential energy compliant bonds brought in when they formed (stretched at r_c)
+  double kinetic = 0.0;    // now
+  double potential = 0.0;  // compliant clusters' springs, now
+  double contacts = 0.0, rigid_merges = 0.0, relaxed = 0.0, bursts = 0.0;  // RunStats::lost_*
+  double dampers = 0.0;    // the rest
 };
 
 // Interrupted: stopped from outside (set_stop_flag), e.g. by SIGTERM; the
@@ -120,6 +142,8 @@ class Simulation {
   // the capture distance, stretched), for the energy balance of validation.
   double compliant_potential(double t) const;
   double bond_energy() const { return bond_energy_; }
+  // The energy ledger at the present time (after synchronize or at the end).
+  EnergyBudget energy_budget() const;
   // 1-2 and 1-3 pairs of the bond graph (a sphere and a linker bonded to it,
   // two linkers on one sphere, two spheres on one linker): never in contact.
   bool contact_excluded(int i, int j) const;
@@ -132,6 +156,12 @@ class Simulation {
   // (checked every kStopCheckEvents events: a relaxed atomic load).
   void set_stop_flag(const std::atomic<bool>* flag) { stop_flag_ = flag; }
   static constexpr std::uint64_t kStopCheckEvents = 1024;
+
+  // Called with every compliant cluster a bond creates or changes (merge or
+  // ring closure), in its state at the bond, before it is integrated: the
+  // stability study (bench/bench_compliant.cpp) replays them.
+  using ClusterObserver = std::function<void(const CompliantCluster&, double)>;
+  void set_cluster_observer(ClusterObserver f) { cluster_observer_ = std::move(f); }
 
   // Event log for tests comparing queue implementations: (time, kind, i, j).
   struct LoggedEvent { double time; EventType type; int a; int b; };
@@ -163,7 +193,8 @@ class Simulation {
   void cut_group(int g, double t);
   bool begin_slice(int g, double t);
   void process_slice(int i, const Event& ev, double t);
-  void relax_group(int g, double t);
+  // burst: the switch ends a contact burst (else the cluster relaxed).
+  void relax_group(int g, double t, bool burst = false);
   void wake_cluster(int cluster, double t);
   void form_compliant_bond(int s, int l, int end, double t);
   IntegratorOptions integrator_options() const;
@@ -211,7 +242,9 @@ class Simulation {
   std::vector<int> cindex_;              // body -> its index in its compliant group's model
   std::vector<int> dormant_;             // rigid cluster id -> the relaxed compliant group it carries, or -1
   double bond_energy_ = 0.0;
+  double initial_energy_ = 0.0;
   Validator* validator_ = nullptr;
+  ClusterObserver cluster_observer_;
   bool log_on_ = false;
   std::vector<LoggedEvent> log_;
 };

@@ -118,6 +118,13 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   j["events_per_second"] = wall > 0 ? static_cast<double>(s.events) / wall : 0.0;
   j["energy"] = {{"translational", totals.translational}, {"rotational", totals.rotational}};
   j["momentum"] = {totals.momentum.x(), totals.momentum.y(), totals.momentum.z()};
+  {
+    const EnergyBudget e = sim.energy_budget();
+    j["energy_budget"] = {{"initial", e.initial},       {"bonds_in", e.bonds_in},   {"kinetic", e.kinetic},
+                          {"potential", e.potential},   {"lost_contacts", e.contacts},
+                          {"lost_rigid_merges", e.rigid_merges}, {"lost_relaxed", e.relaxed},
+                          {"lost_bursts", e.bursts},    {"lost_dampers", e.dampers}};
+  }
   // The study's observables (MODEL.md, "Observables"), at the final time.
   const Observables o = sim.graph().observables(sim.time());
   j["captures"] = s.captures;
@@ -255,7 +262,7 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
     for (const char* k : {"seed", "spheres", "linkers", "packing_fraction", "mixing", "t_end", "termination", "events",
                           "collisions", "wall_collisions", "captures", "bonds", "closure_bonds", "rejected",
                           "cell_crossings", "stale_events", "tc_collisions", "floored_contacts", "ca_steps", "wall_seconds",
-                          "events_per_second", "energy", "momentum"})
+                          "events_per_second", "energy", "momentum", "energy_budget"})
       row(k, j[k].dump());
     if (j.contains("compliant")) row("compliant", j["compliant"].dump());
     if (j.contains("validation")) row("validation", j["validation"].dump());
