@@ -272,9 +272,12 @@ void Simulation::apply_impulse(int i, const Vec3& J, const Vec3& arm) {
     // The member alone takes the jump (its own mass and inertia); touch() put
     // the cluster's state at the event time into the integrator.
     CompliantBody& cb = cgroups_[cg].integ->mutable_state().bodies[cindex_[i]];
+    // (A smooth sphere's arm is parallel to J up to the contact frame's
+    // polish, a linker feature's normal at a tie: its spin then changes a
+    // little, as for a free sphere, and the energy ledger stays exact.)
     cb.v += J / cb.mass;
-    if (cb.shape == Shape::Linker) cb.omega += inverse_inertia(bodies_.sp(i), cb.axis()) * arm.cross(J);
-    return;  // a smooth sphere's arm is parallel to J (its spin stays)
+    cb.omega += inverse_inertia(bodies_.sp(i), cb.axis()) * arm.cross(J);
+    return;
   }
   const int g = bodies_.group[i];
   if (g >= 0) {
