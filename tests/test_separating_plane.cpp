@@ -55,6 +55,31 @@ TEST(SeparatingPlane, IntervalMaximumIsAnUpperBound) {
   }
 }
 
+TEST(SeparatingPlane, AdvanceReturnsWhenNoStepCanMoveTheTime) {
+  // A turning linker against a wall, its gap at round-off level (2e-15) at
+  // t = 475, where one ulp of t is 6e-14: the safe step (gap / bound) cannot
+  // move t. advance_plane must hand back at once (the caller floors the
+  // step), not spin through its budget (it did: a replicate hung for ever).
+  SimParams p;
+  const Species L = make_species(Shape::Linker, p);
+  Rng rng(3, 0, Stream::Placement);
+  const Kinematics k = random_linker(rng, L, Vec3::Zero());
+  const Vec3 n = Vec3::UnitX();
+  SeparatingPlane pl;
+  pl.t0 = 475.0;
+  pl.a = SupportTrack::of(k, L, n, 0.0);
+  pl.b = SupportTrack::constant(0.0);
+  pl.slope = 0.0;
+  pl.offset = pl.a.at(475.0) + 2.2e-15;
+  const double s = pl.at(475.0);
+  ASSERT_GT(s, 0.0);
+  ASSERT_LT(s, 1e-14);
+  long evaluations = 0;
+  const double t = advance_plane(pl, 475.0, 476.0, 0.5 * s, 0.75 * s, 10.0, &evaluations, 1 << 22);
+  EXPECT_EQ(t, 475.0);
+  EXPECT_LT(evaluations, 100);
+}
+
 TEST(SeparatingPlane, PlaneNeverExceedsTrueDistance) {
   SimParams p;
   const Species L = make_species(Shape::Linker, p);

@@ -156,6 +156,11 @@ double advance_plane(const SeparatingPlane& plane, double t, double end, double 
     const double rate = plane.rate_at(t);
     double trial = std::max(step, safe);
     if (rate < 0.0) trial = std::max(safe, std::min(2.0 * std::max(step, safe), 0.9 * (s - target) / -rate));
+    // A step below the resolution of t (a gap at round-off level, e.g. 1e-15
+    // at t = 475 where one ulp is 6e-14) cannot move t: return and let the
+    // caller take its floor step (every caller floors at min_step), instead of
+    // spinning through the budget (S4 seed 3: one wall prediction for ever).
+    if (t + std::max(trial, safe) == t) return t;
     for (;;) {
       if (trial <= safe) {
         t += safe;
