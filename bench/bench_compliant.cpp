@@ -13,11 +13,27 @@
 // Study "bandwidth": BDF dense vs band on staircase chains of growing length
 // at Scenario 5's constants (k = k_omega = 1000, c = c_omega = 100).
 //
+// Study "scenario": the clusters a Scenario 5 replicate integrates. Seed 1
+// runs to t = --collect (default 300) with Scenario 5's constants; every
+// compliant cluster a bond creates or changes is recorded in its state at the
+// bond (stretched at the capture distance: the stiff transient). Each is then
+// integrated over [0, T] with k = k_omega in {1e2 .. 1e6}, c = k / 10, as
+// above; a row sums the work over all clusters, its error is the largest over
+// them, its status the first failure's.
+//
+// Study "replicate": the same replicate (seed 1) through the event loop to
+// t = --replicate-span (default 10) with each k and method: the solver's
+// steps and right-hand sides, the replicate's wall time, and its end: a
+// failure is the replicate's error (as an ensemble would record it).
+//
 // Output: CSV on stdout (one header, one row per run). Usage:
-//   bench_compliant [--repeat R] [--span T] [--quick]
+//   bench_compliant [--repeat R] [--span T] [--collect T] [--replicate-span T]
+//                   [--studies LIST: stiffness,bandwidth (default), scenario] [--quick]
+// ("scenario" runs both Scenario 5 studies.)
 // Plot: bench/plot_compliant.py CSV docs/compliant_stability.png
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -26,6 +42,8 @@
 
 #include "compliant_chain.hpp"
 #include "core/compliant_integrator.hpp"
+#include "core/scene.hpp"
+#include "core/simulation.hpp"
 
 using namespace ringsim;
 
@@ -71,25 +89,163 @@ void print_row(const char* study, double k, int bodies, int unknowns, const char
   std::fflush(stdout);
 }
 
+struct Variant {
+  Method method;
+  LinearSolver solver;
+  const char* solver_name;
+};
+
+SimParams scenario5_params() {
+  SimParams p;  // the defaults are Scenario 4 (both filters, 300 + 300)
+  p.compliant.k = p.compliant.k_omega = 1000.0;
+  p.compliant.c = p.compliant.c_omega = 100.0;
+  p.run.steady_state = false;
+  return p;
+}
+
+void add(IntegratorStats& a, const IntegratorStats& b) {
+  a.steps += b.steps;
+  a.rhs_evals += b.rhs_evals;
+  a.rhs_evals_jacobian += b.rhs_evals_jacobian;
+  a.jacobian_evals += b.jacobian_evals;
+  a.linear_setups += b.linear_setups;
+  a.nonlinear_iterations += b.nonlinear_iterations;
+  a.error_test_failures += b.error_test_failures;
+  a.wall_seconds += b.wall_seconds;
+  a.rhs_seconds += b.rhs_seconds;
+}
+
+// The "scenario" and "replicate" studies (header comment).
+void scenario_studies(const std::vector<double>& ks, const std::vector<Variant>& variants, double collect, double span,
+                      double replicate_span, int repeat) {
+  SimParams p = scenario5_params();
+  p.run.t_max = collect;
+  std::vector<CompliantCluster> clusters;
+  {
+    Simulation sim(p, build_scene(p, 1, 0, nullptr));
+    sim.set_cluster_observer([&](const CompliantCluster& c, double) { clusters.push_back(c); });
+    if (sim.run() == Termination::Error) std::fprintf(stderr, "collecting replicate failed: %s\n", sim.error().c_str());
+  }
+  std::size_t largest = 0;
+  for (const CompliantCluster& c : clusters) largest = std::max(largest, c.bodies.size());
+  std::fprintf(stderr, "scenario study: %zu clusters recorded (largest %zu bodies) in t <= %g\n", clusters.size(),
+               largest, collect);
+  for (const double k : ks) {
+    std::vector<CompliantCluster> at_k = clusters;
+    for (CompliantCluster& c : at_k) {
+      c.params.k = c.params.k_omega = k;
+      c.params.c = c.params.c_omega = k / 10.0;
+    }
+    IntegratorOptions ref_opt;
+    ref_opt.rtol = 1e-12;
+    ref_opt.atol = 1e-14;
+    ref_opt.max_steps = 10000000;
+    std::vector<CompliantCluster> ref_end;
+    Run ref;
+    for (const CompliantCluster& c : at_k) {
+      Run r = run_once(c, ref_opt, span);
+      if (!r.result.ok()) std::fprintf(stderr, "reference failed at k = %g: %s\n", k, r.result.reason.c_str());
+      add(ref.stats, r.stats);
+      ref_end.push_back(r.state);
+    }
+    print_row("scenario", k, static_cast<int>(at_k.size()), 0, "bdf-reference", "auto", ref, ref.stats.wall_seconds,
+              0.0);
+    for (const Variant& v : variants) {
+      IntegratorOptions o;
+      o.method = v.method;
+      o.linear_solver = v.solver;
+      Run total;
+      double error = 0.0, wall = 1e300;
+      bool failed = false;
+      for (int rep = 0; rep < repeat; ++rep) {
+        Run sum;
+        double err = 0.0;
+        bool fail = false;
+        for (std::size_t i = 0; i < at_k.size(); ++i) {
+          const Run r = run_once(at_k[i], o, span);
+          add(sum.stats, r.stats);
+          if (!r.result.ok() && !fail) {
+            fail = true;
+            sum.result = r.result;
+            sum.result.reason = "cluster " + std::to_string(i) + " of " + std::to_string(at_k.size()) + ": " + r.result.reason;
+          }
+          if (r.result.ok()) err = std::max(err, pose_error(r.state, ref_end[i]));
+        }
+        if (!fail) sum.result.t_stopped = span;
+        wall = std::min(wall, sum.stats.wall_seconds);
+        total = sum;
+        error = err;
+        failed = fail;
+      }
+      print_row("scenario", k, static_cast<int>(at_k.size()), 0, to_string(v.method), v.solver_name, total, wall,
+                failed ? -1.0 : error);
+    }
+  }
+
+  // The replicate itself, through the event loop, with each k and method;
+  // then the stiffest k once more with slices of 1 time unit, where a
+  // method limited by stability meets the step cap of one advance (20000).
+  std::vector<std::pair<double, double>> runs;  // (k, compliant.slice)
+  for (const double k : ks) runs.emplace_back(k, SimParams().compliant.slice);
+  runs.emplace_back(ks.back(), 1.0);
+  for (const auto& [k, slice] : runs) {
+    for (const Variant& v : variants) {
+      if (v.solver == LinearSolver::Band) continue;  // the event loop picks the linear solver itself
+      SimParams q = scenario5_params();
+      q.run.t_max = replicate_span;
+      q.compliant.k = q.compliant.k_omega = k;
+      q.compliant.c = q.compliant.c_omega = k / 10.0;
+      q.compliant.slice = slice;
+      q.compliant.method = v.method == Method::Bdf     ? CompliantMethod::Bdf
+                           : v.method == Method::Adams ? CompliantMethod::Adams
+                                                       : CompliantMethod::Erk;
+      const auto start = std::chrono::steady_clock::now();
+      Simulation sim(q, build_scene(q, 1, 0, nullptr));
+      const Termination term = sim.run();
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const RunStats& st = sim.stats();
+      Run r;
+      r.stats.steps = st.sundials_steps;
+      r.stats.rhs_evals = st.sundials_rhs;
+      r.stats.rhs_seconds = st.sundials_seconds;  // (column reused: time inside the integrators)
+      r.result.status = term == Termination::Error ? IntegratorStatus::SolverError : IntegratorStatus::Ok;
+      r.result.t_stopped = sim.time();
+      r.result.reason = term == Termination::Error ? sim.error()
+                                                   : std::string(to_string(term)) + ", " + std::to_string(st.bonds) +
+                                                         " bonds, " + std::to_string(st.slices) + " slices";
+      print_row(slice < 1.0 ? "replicate" : "replicate-slice1", k, 600, 0, to_string(v.method), "auto", r, wall, -1.0);
+    }
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int repeat = 3;
   double span = 2.0;
   bool quick = false;
+  double collect = 300.0, replicate_span = 10.0;
+  std::string studies = "stiffness,bandwidth";
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
       repeat = std::max(1, std::atoi(argv[++i]));
     } else if (std::strcmp(argv[i], "--span") == 0 && i + 1 < argc) {
       span = std::atof(argv[++i]);
+    } else if (std::strcmp(argv[i], "--collect") == 0 && i + 1 < argc) {
+      collect = std::atof(argv[++i]);
+    } else if (std::strcmp(argv[i], "--replicate-span") == 0 && i + 1 < argc) {
+      replicate_span = std::atof(argv[++i]);
+    } else if (std::strcmp(argv[i], "--studies") == 0 && i + 1 < argc) {
+      studies = argv[++i];
     } else if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
     } else {
-      std::fprintf(stderr, "usage: %s [--repeat R] [--span T] [--quick]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--repeat R] [--span T] [--collect T] [--replicate-span T] [--studies LIST] [--quick]\n", argv[0]);
       return 2;
     }
   }
 
+  auto want = [&](const char* name) { return ("," + studies + ",").find("," + std::string(name) + ",") != std::string::npos; };
   std::printf(
       "study,k,bodies,unknowns,method,linear_solver,status,steps,rhs_evals,rhs_evals_jacobian,jacobian_evals,"
       "linear_setups,nonlinear_iterations,error_test_failures,wall_seconds,rhs_seconds,error,t_reached,reason\n");
@@ -100,19 +256,14 @@ int main(int argc, char** argv) {
   setup.drot_deg = 4.0;
   setup.seed = 11;
 
-  struct Variant {
-    Method method;
-    LinearSolver solver;
-    const char* solver_name;
-  };
-  const Variant variants[] = {{Method::Bdf, LinearSolver::Dense, "dense"},
+  const std::vector<Variant> variants = {{Method::Bdf, LinearSolver::Dense, "dense"},
                               {Method::Bdf, LinearSolver::Band, "band"},
                               {Method::Adams, LinearSolver::Auto, "none"},
                               {Method::ExplicitRk, LinearSolver::Auto, "none"}};
 
   std::vector<double> ks = {1e2, 1e3, 1e4, 1e5, 1e6};
   if (quick) ks = {1e2, 1e4, 1e6};
-  for (const double k : ks) {
+  for (const double k : (want("stiffness") ? ks : std::vector<double>{})) {
     CompliantParams cp;
     cp.k = cp.k_omega = k;
     cp.c = cp.c_omega = k / 10.0;
@@ -151,12 +302,15 @@ int main(int argc, char** argv) {
     }
   }
 
+  if (want("scenario")) scenario_studies(ks, variants, collect, span, replicate_span, repeat);
+
   // Band vs dense on longer chains at Scenario 5's constants.
   CompliantParams s5;
   s5.k = s5.k_omega = 1000.0;
   s5.c = s5.c_omega = 100.0;
   std::vector<int> corners = {4, 8, 16, 32, 64};
   if (quick) corners = {4, 16};
+  if (!want("bandwidth")) corners.clear();
   for (const int n : corners) {
     const CompliantCluster chain = test::staircase_chain(n, s5, bonding, setup);
     for (const LinearSolver ls : {LinearSolver::Dense, LinearSolver::Band}) {
