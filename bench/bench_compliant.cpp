@@ -208,7 +208,12 @@ void scenario_studies(const std::vector<double>& ks, const std::vector<Variant>&
       r.stats.steps = st.sundials_steps;
       r.stats.rhs_evals = st.sundials_rhs;
       r.stats.rhs_seconds = st.sundials_seconds;  // (column reused: time inside the integrators)
-      r.result.status = term == Termination::Error ? IntegratorStatus::SolverError : IntegratorStatus::Ok;
+      // The replicate's error names the solver's status (step limit,
+      // non-finite state, or a SUNDIALS flag).
+      r.result.status = term != Termination::Error                                 ? IntegratorStatus::Ok
+                        : sim.error().find("step limit") != std::string::npos      ? IntegratorStatus::StepLimit
+                        : sim.error().find("non-finite") != std::string::npos      ? IntegratorStatus::NonFinite
+                                                                                    : IntegratorStatus::SolverError;
       r.result.t_stopped = sim.time();
       r.result.reason = term == Termination::Error ? sim.error()
                                                    : std::string(to_string(term)) + ", " + std::to_string(st.bonds) +
