@@ -103,18 +103,6 @@ SimParams scenario5_params() {
   return p;
 }
 
-void add(IntegratorStats& a, const IntegratorStats& b) {
-  a.steps += b.steps;
-  a.rhs_evals += b.rhs_evals;
-  a.rhs_evals_jacobian += b.rhs_evals_jacobian;
-  a.jacobian_evals += b.jacobian_evals;
-  a.linear_setups += b.linear_setups;
-  a.nonlinear_iterations += b.nonlinear_iterations;
-  a.error_test_failures += b.error_test_failures;
-  a.wall_seconds += b.wall_seconds;
-  a.rhs_seconds += b.rhs_seconds;
-}
-
 // The "scenario" and "replicate" studies (header comment).
 void scenario_studies(const std::vector<double>& ks, const std::vector<Variant>& variants, double collect, double span,
                       double replicate_span, int repeat) {
@@ -145,7 +133,7 @@ void scenario_studies(const std::vector<double>& ks, const std::vector<Variant>&
     for (const CompliantCluster& c : at_k) {
       Run r = run_once(c, ref_opt, span);
       if (!r.result.ok()) std::fprintf(stderr, "reference failed at k = %g: %s\n", k, r.result.reason.c_str());
-      add(ref.stats, r.stats);
+      ref.stats += r.stats;
       ref_end.push_back(r.state);
     }
     print_row("scenario", k, static_cast<int>(at_k.size()), 0, "bdf-reference", "auto", ref, ref.stats.wall_seconds,
@@ -163,7 +151,7 @@ void scenario_studies(const std::vector<double>& ks, const std::vector<Variant>&
         bool fail = false;
         for (std::size_t i = 0; i < at_k.size(); ++i) {
           const Run r = run_once(at_k[i], o, span);
-          add(sum.stats, r.stats);
+          sum.stats += r.stats;
           if (!r.result.ok() && !fail) {
             fail = true;
             sum.result = r.result;

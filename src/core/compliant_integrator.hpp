@@ -85,6 +85,21 @@ struct IntegratorStats {
   long reinits = 0;
   double wall_seconds = 0.0;    // inside the solver calls of advance_to()
   double rhs_seconds = 0.0;     // of which inside the right-hand side (IntegratorOptions::time_rhs)
+
+  IntegratorStats& operator+=(const IntegratorStats& o) {  // every counter and time
+    steps += o.steps;
+    rhs_evals += o.rhs_evals;
+    rhs_evals_jacobian += o.rhs_evals_jacobian;
+    jacobian_evals += o.jacobian_evals;
+    linear_setups += o.linear_setups;
+    nonlinear_iterations += o.nonlinear_iterations;
+    nonlinear_failures += o.nonlinear_failures;
+    error_test_failures += o.error_test_failures;
+    reinits += o.reinits;
+    wall_seconds += o.wall_seconds;
+    rhs_seconds += o.rhs_seconds;
+    return *this;
+  }
 };
 
 enum class IntegratorStatus { Ok, StepLimit, NonFinite, SolverError };
