@@ -10,6 +10,7 @@
 #include <cmath>
 #include <random>
 
+#include "compliant_chain.hpp"
 #include "core/contact.hpp"
 #include "core/scene.hpp"
 #include "core/simulation.hpp"
@@ -46,6 +47,12 @@ TEST(EnergyBudget, ImpulseLossEqualsTheKineticEnergyDifference) {
     const Vec3 vb = b.v + b.inv_mass * J, wb = b.omega + b.inv_inertia * b.arm.cross(J);
     const double after = side_energy(a, va, wa) + side_energy(b, vb, wb);
     EXPECT_NEAR(impulse_energy_loss(a, b, J), before - after, 1e-11 * (1.0 + before)) << "trial " << trial;
+    // The contact law reports the same loss for the impulse it computes
+    // (inelastic, frictional: every branch of the law loses energy).
+    const Vec3 n = random_vec(rng, 1.0).normalized();
+    const ContactResult r = solve_contact(a, b, n, ContactLaw{0.5, 0.3, 0.2});
+    EXPECT_NEAR(r.energy_loss, impulse_energy_loss(a, b, r.impulse), 1e-11 * (1.0 + before)) << "trial " << trial;
+    if (n.dot(relative_point_velocity(a, b)) < 0.0) EXPECT_GE(r.energy_loss, -1e-12) << "trial " << trial;
   }
   // A wall (infinite mass, at rest): the body's own energy change.
   ContactSide body{0.25, random_spd(rng), random_vec(rng, 1.0), random_vec(rng, 1.0), random_vec(rng, 1.0)};
@@ -94,15 +101,6 @@ TEST(EnergyBudget, RigidBondsLoseOnlyInMerges) {
   std::printf("initial %.3f kinetic %.3f merges %.3f (%ld bonds)\n", e.initial, e.kinetic, e.rigid_merges, (long)s.bonds);
 }
 
-SimParams scenario5(double t_max) {
-  SimParams p;
-  p.compliant.k = p.compliant.k_omega = 1000.0;
-  p.compliant.c = p.compliant.c_omega = 100.0;
-  p.run.t_max = t_max;
-  p.run.steady_state = false;
-  return p;
-}
-
 TEST(EnergyBudget, CompliantRestIsTheDampersShare) {
   // Without dampers the rest is the integrators' error only: the bonds'
   // energy, the contacts and the rigid switches (relaxed, bursts) are all
@@ -112,7 +110,7 @@ TEST(EnergyBudget, CompliantRestIsTheDampersShare) {
   // O(slice^4); measured on this run: rest 17 at the default slice 0.05,
   // 0.66 at 0.02, 0.066 at 0.01, 0.003 at 0.005). With dampers the rest is
   // their loss: positive, larger than what the bonds brought in.
-  SimParams p = scenario5(25.0);
+  SimParams p = test::scenario5_scene(25.0);
   p.compliant.c = p.compliant.c_omega = 0.0;
   p.compliant.rtol = 1e-9;
   p.compliant.atol = 1e-11;
@@ -127,7 +125,7 @@ TEST(EnergyBudget, CompliantRestIsTheDampersShare) {
               undamped.initial, undamped.bonds_in, undamped.kinetic, undamped.potential, undamped.relaxed,
               undamped.bursts, (long)s.relaxed, (long)s.bursts, undamped.dampers);
 
-  const EnergyBudget damped = run_budget(scenario5(25.0), 5, &s);
+  const EnergyBudget damped = run_budget(test::scenario5_scene(25.0), 5, &s);
   EXPECT_GT(damped.dampers, damped.bonds_in);
   EXPECT_GE(damped.relaxed, 0.0);  // inelastic merges never gain
   EXPECT_GE(damped.bursts, 0.0);

@@ -31,11 +31,10 @@ Mat3 collision_matrix(const ContactSide& a, const ContactSide& b) {
   return (a.inv_mass + b.inv_mass) * Mat3::Identity() - ra * a.inv_inertia * ra - rb * b.inv_inertia * rb;
 }
 
-// Newton restitution and impulsive Coulomb friction (the header's laws).
-ContactResult newton_coulomb(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law) {
-  const Vec3 u = point_velocity(b) - point_velocity(a);
+// Newton restitution and impulsive Coulomb friction (the header's laws), for
+// relative contact-point velocity u and collision matrix K.
+ContactResult newton_coulomb(const Vec3& u, const Mat3& K, const Vec3& n, const ContactLaw& law) {
   const double un = n.dot(u);
-  const Mat3 K = collision_matrix(a, b);
   const double e = law.restitution;
 
   const Vec3 ut = u - un * n;
@@ -60,30 +59,30 @@ ContactResult newton_coulomb(const ContactSide& a, const ContactSide& b, const V
   return {j * n, ContactMode::Smooth};
 }
 
+// -J . (u- + u+) / 2 with u+ = u- + K J (header).
+double energy_loss(const Vec3& u, const Mat3& K, const Vec3& J) { return -J.dot(u + 0.5 * (K * J)); }
+
 }  // namespace
 
 ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law) {
-  ContactResult r = newton_coulomb(a, b, n, law);
+  const Vec3 u = relative_point_velocity(a, b);
+  const Mat3 K = collision_matrix(a, b);
+  ContactResult r = newton_coulomb(u, K, n, law);
   if (law.min_separation > 0.0 && law.restitution >= 1.0) {
-    const Mat3 K = collision_matrix(a, b);
-    const double un_after = n.dot(point_velocity(b) - point_velocity(a) + K * r.impulse);
+    const double un_after = n.dot(u + K * r.impulse);
     if (un_after < law.min_separation) {
       r.impulse += ((law.min_separation - un_after) / n.dot(K * n)) * n;
       r.floored = true;
     }
   }
+  r.energy_loss = energy_loss(u, K, r.impulse);
   return r;
 }
 
+Vec3 relative_point_velocity(const ContactSide& a, const ContactSide& b) { return point_velocity(b) - point_velocity(a); }
+
 double impulse_energy_loss(const ContactSide& a, const ContactSide& b, const Vec3& J) {
-  auto point_velocity = [](const ContactSide& s) -> Vec3 { return s.v + s.omega.cross(s.arm); };
-  // Change of a side's contact-point velocity under impulse P on it.
-  auto response = [](const ContactSide& s, const Vec3& P) {
-    return Vec3(s.inv_mass * P + (s.inv_inertia * s.arm.cross(P)).cross(s.arm));
-  };
-  const Vec3 u = point_velocity(b) - point_velocity(a);
-  const Vec3 du = response(b, J) - response(a, -J);
-  return -J.dot(u + 0.5 * du);
+  return energy_loss(relative_point_velocity(a, b), collision_matrix(a, b), J);
 }
 
 }  // namespace ringsim

@@ -47,6 +47,7 @@ struct ContactResult {
   Vec3 impulse;      // on B
   ContactMode mode;
   bool floored = false;  // the separation-speed floor added to the impulse
+  double energy_loss = 0.0;  // kinetic energy the impulse took out (impulse_energy_loss)
 };
 
 ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law);
@@ -58,6 +59,9 @@ ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Ve
 // to J . (its contact point's velocity before + after) / 2. Negative when the
 // impulse adds energy.
 double impulse_energy_loss(const ContactSide& a, const ContactSide& b, const Vec3& J);
+
+// Velocity of B's contact point minus A's (v + omega x arm of each side).
+Vec3 relative_point_velocity(const ContactSide& a, const ContactSide& b);
 
 double combine(CombineRule rule, double a, double b);
 

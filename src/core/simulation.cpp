@@ -365,10 +365,9 @@ void Simulation::process_collision(int i, int j, double t) {
   // longer approaches: then no impulse (one would pull), and the next
   // prediction, in the same frame, sees them separate.
   const Vec3& n = frame.normal;
-  const double un = n.dot(b.v + b.omega.cross(b.arm) - a.v - a.omega.cross(a.arm));
-  if (un < 0.0) {
+  if (n.dot(relative_point_velocity(a, b)) < 0.0) {
     const ContactResult r = solve_contact(a, b, n, law);
-    stats_.lost_contacts += impulse_energy_loss(a, b, r.impulse);
+    stats_.lost_contacts += r.energy_loss;
     apply_impulse(i, -r.impulse, a.arm);
     apply_impulse(j, r.impulse, b.arm);
     if (r.mode == ContactMode::Stick) ++stats_.stick;
@@ -402,7 +401,7 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
   }
   law.min_separation = params_.run.min_separation_speed;
   const ContactResult r = solve_contact(body, wall, n, law);
-  stats_.lost_contacts += impulse_energy_loss(body, wall, r.impulse);
+  stats_.lost_contacts += r.energy_loss;
   if (r.floored) ++stats_.floored;
   apply_impulse(i, -r.impulse, body.arm);
   ext_impulse_ -= r.impulse;
