@@ -34,6 +34,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -95,19 +96,10 @@ struct Variant {
   const char* solver_name;
 };
 
-SimParams scenario5_params() {
-  SimParams p;  // the defaults are Scenario 4 (both filters, 300 + 300)
-  p.compliant.k = p.compliant.k_omega = 1000.0;
-  p.compliant.c = p.compliant.c_omega = 100.0;
-  p.run.steady_state = false;
-  return p;
-}
-
 // The "scenario" and "replicate" studies (header comment).
 void scenario_studies(const std::vector<double>& ks, const std::vector<Variant>& variants, double collect, double span,
                       double replicate_span, int repeat) {
-  SimParams p = scenario5_params();
-  p.run.t_max = collect;
+  const SimParams p = test::scenario5_scene(collect);
   std::vector<CompliantCluster> clusters;
   {
     Simulation sim(p, build_scene(p, 1, 0, nullptr));
@@ -179,8 +171,7 @@ void scenario_studies(const std::vector<double>& ks, const std::vector<Variant>&
   for (const auto& [k, slice] : runs) {
     for (const Variant& v : variants) {
       if (v.solver == LinearSolver::Band) continue;  // the event loop picks the linear solver itself
-      SimParams q = scenario5_params();
-      q.run.t_max = replicate_span;
+      SimParams q = test::scenario5_scene(replicate_span);
       q.compliant.k = q.compliant.k_omega = k;
       q.compliant.c = q.compliant.c_omega = k / 10.0;
       q.compliant.slice = slice;
@@ -219,17 +210,37 @@ int main(int argc, char** argv) {
   bool quick = false;
   double collect = 300.0, replicate_span = 10.0;
   std::string studies = "stiffness,bandwidth";
+  // A positive time argument, or a message naming the option, value and range.
+  auto positive = [&](const char* option, const char* text, double* out) {
+    char* end = nullptr;
+    const double v = std::strtod(text, &end);
+    if (end == text || *end != '\0' || !(v > 0.0) || !std::isfinite(v)) {
+      std::fprintf(stderr, "%s: %s = '%s': must be a number > 0\n", argv[0], option, text);
+      return false;
+    }
+    *out = v;
+    return true;
+  };
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
       repeat = std::max(1, std::atoi(argv[++i]));
     } else if (std::strcmp(argv[i], "--span") == 0 && i + 1 < argc) {
-      span = std::atof(argv[++i]);
+      if (!positive("--span", argv[++i], &span)) return 2;
     } else if (std::strcmp(argv[i], "--collect") == 0 && i + 1 < argc) {
-      collect = std::atof(argv[++i]);
+      if (!positive("--collect", argv[++i], &collect)) return 2;
     } else if (std::strcmp(argv[i], "--replicate-span") == 0 && i + 1 < argc) {
-      replicate_span = std::atof(argv[++i]);
+      if (!positive("--replicate-span", argv[++i], &replicate_span)) return 2;
     } else if (std::strcmp(argv[i], "--studies") == 0 && i + 1 < argc) {
       studies = argv[++i];
+      std::string rest = studies + ",";
+      for (std::size_t at = 0, comma; (comma = rest.find(',', at)) != std::string::npos; at = comma + 1) {
+        const std::string name = rest.substr(at, comma - at);
+        if (name != "stiffness" && name != "bandwidth" && name != "scenario") {
+          std::fprintf(stderr, "%s: --studies = '%s': unknown study '%s' (valid: stiffness, bandwidth, scenario)\n",
+                       argv[0], studies.c_str(), name.c_str());
+          return 2;
+        }
+      }
     } else if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
     } else {
@@ -298,9 +309,7 @@ int main(int argc, char** argv) {
   if (want("scenario")) scenario_studies(ks, variants, collect, span, replicate_span, repeat);
 
   // Band vs dense on longer chains at Scenario 5's constants.
-  CompliantParams s5;
-  s5.k = s5.k_omega = 1000.0;
-  s5.c = s5.c_omega = 100.0;
+  const CompliantParams s5 = test::scenario5_compliant();
   std::vector<int> corners = {4, 8, 16, 32, 64};
   if (quick) corners = {4, 16};
   if (!want("bandwidth")) corners.clear();

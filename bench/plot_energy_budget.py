@@ -70,4 +70,9 @@ def main(out, pairs):
 if __name__ == "__main__":
     if len(sys.argv) < 3:
         sys.exit(__doc__)
-    main(sys.argv[1], [a.split("=", 1) for a in sys.argv[2:]])
+    pairs = []
+    for arg in sys.argv[2:]:
+        if "=" not in arg:
+            sys.exit(f"{arg!r}: expected LABEL=CSV (e.g. 'Scenario 5=s5.csv')")
+        pairs.append(arg.split("=", 1))
+    main(sys.argv[1], pairs)

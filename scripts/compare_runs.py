@@ -43,6 +43,10 @@ def main(base_path, other_path, keys):
     ids = np.intersect1d(base["id"], other["id"])
     a = base[np.isin(base["id"], ids)]
     b = other[np.isin(other["id"], ids)]
+    fields = base.dtype.names
+    for k in keys:
+        if k not in fields:
+            sys.exit(f"observable {k!r} is not a column of {base_path} (valid: {', '.join(fields)})")
     print(f"{len(base)} and {len(other)} finished replicates, {len(ids)} paired")
     for k in keys:
         ma, ha = ci(base[k])

@@ -14,6 +14,24 @@
 namespace ringsim {
 namespace test {
 
+// Scenario 5's bond constants (MODEL.md, "Scenarios"; jobs/scenarios/5-compliant.toml).
+inline CompliantParams scenario5_compliant() {
+  CompliantParams p;
+  p.k = p.k_omega = 1000.0;
+  p.c = p.c_omega = 100.0;
+  return p;
+}
+
+// The whole Scenario 5 (the defaults are Scenario 4: both filters, 300 + 300)
+// run to t_max without the steady-state stop.
+inline SimParams scenario5_scene(double t_max) {
+  SimParams p;
+  p.compliant = scenario5_compliant();
+  p.run.t_max = t_max;
+  p.run.steady_state = false;
+  return p;
+}
+
 // Small deterministic generator (splitmix64): uniform in [-1, 1).
 class Jitter {
  public:

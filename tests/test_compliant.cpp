@@ -27,14 +27,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-CompliantParams scenario5() {
-  CompliantParams p;
-  p.k = 1000.0;
-  p.c = 100.0;
-  p.k_omega = 1000.0;
-  p.c_omega = 100.0;
-  return p;
-}
+CompliantParams scenario5() { return test::scenario5_compliant(); }
 
 BondingParams both_filters() { return BondingParams{}; }  // defaults: both filters, theta0 = 90
 

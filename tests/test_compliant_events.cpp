@@ -12,6 +12,7 @@
 #include <tuple>
 
 #include "body_builder.hpp"
+#include "compliant_chain.hpp"
 #include "core/cluster.hpp"
 #include "core/pose.hpp"
 #include "core/scene.hpp"
@@ -31,8 +32,7 @@ SimParams compliant_params() {
   p.init.spheres = 0;
   p.init.linkers = 0;
   p.bonding.enabled = true;
-  p.compliant.k = p.compliant.k_omega = 1000.0;  // Scenario 5
-  p.compliant.c = p.compliant.c_omega = 100.0;
+  p.compliant = test::scenario5_compliant();
   p.run.t_max = 60.0;
   p.run.steady_state = false;
   return p;
@@ -238,11 +238,7 @@ TEST(CompliantChain, ContactBurstEndsInRigidMotionWithoutOverlapOrEnergyGain) {
 }
 
 TEST(CompliantScenario, ValidationReplicateHasNoOverlapsAndIsDeterministic) {
-  SimParams p;  // Scenario 5: Scenario 4 + compliant bonds
-  p.compliant.k = p.compliant.k_omega = 1000.0;
-  p.compliant.c = p.compliant.c_omega = 100.0;
-  p.run.t_max = 25.0;
-  p.run.steady_state = false;
+  const SimParams p = test::scenario5_scene(25.0);  // Scenario 4 + compliant bonds
   auto once = [&](bool validate) {
     Simulation sim(p, build_scene(p, 5, 0, nullptr));
     Validator v(sim);
