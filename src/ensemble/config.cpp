@@ -391,8 +391,12 @@ const std::vector<KeyDesc>& key_table() {
           "samples between steady-state tests after the first"),
       key<&S::run, &R::max_events>("run.max_events", at_least(0),
           "event budget of a replicate; 0 = unlimited"),
-      key<&S::run, &R::contact_tolerance>("run.contact_tolerance", left_open(0, 1e-3),
-          "gap at which a contact found without a closed form fires"),
+      // Floor 1e-10: the band [tol/2, tol] must be wider than what the
+      // distances of cluster members resolve (~1e-12); at 1e-11 every
+      // Scenario 4 replicate failed a conservative-advancement search
+      // (docs/PERFORMANCE.md, "Speed against accuracy").
+      key<&S::run, &R::contact_tolerance>("run.contact_tolerance", closed(1e-10, 1e-3),
+          "gap at which a contact found without a closed form fires (below 1e-10 the band is finer than cluster members' distances resolve)"),
       key<&S::run, &R::tc_time>("run.tc_time", at_least(0),
           "TC-model collision-time window (Luding & McNamara 1998) against inelastic collapse; 0 = off"),
       key<&S::run, &R::min_separation_speed>("run.min_separation_speed", at_least(0),
