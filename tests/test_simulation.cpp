@@ -159,6 +159,48 @@ TEST(InelasticCollapse, WithoutTcModelTheEventRateExplodes) {
   EXPECT_LT(sim.time(), 1000.0);
 }
 
+// The default box without bonding, e = 0.7 (optionally with friction 0.2):
+// two linkers turning against each other keep meeting at normal speeds
+// that each inelastic bounce shrinks, a resting contact the event loop can
+// only take as a chatter of collisions ~1e-7 apart, each a grazing search
+// (measured, seed 3, old default run.tc_time = 1e-7: 80 000 collisions in
+// 0.009 time units at t = 6.05, then ~950 distance evaluations per
+// collision from t = 8.14; seeds 2, 3, 4 did not reach t = 10 in 60 s).
+SimParams chattering_linkers(bool friction, std::int64_t event_budget) {
+  SimParams p;
+  p.bonding.enabled = false;
+  p.contact.restitution_sphere = p.contact.restitution_linker = 0.7;
+  if (friction) {
+    p.contact.static_friction_sphere = p.contact.dynamic_friction_sphere = 0.2;
+    p.contact.static_friction_linker = p.contact.dynamic_friction_linker = 0.2;
+  }
+  p.run.t_max = 10.0;
+  p.run.max_events = event_budget;
+  return p;
+}
+
+TEST(InelasticCollapse, ChatteringLinkersFinishWithTheDefaultContactTime) {
+  // With the default TC window (1e-4) a chatter turns elastic and ends:
+  // ~3 000 (smooth) and ~6 700 (frictional) collisions to t = 10.
+  for (const bool friction : {false, true}) {
+    const SimParams p = chattering_linkers(friction, 50'000);
+    Simulation sim(p, build_scene(p, 3, 0, nullptr));
+    EXPECT_EQ(sim.run(), Termination::TimeLimit) << "friction " << friction << ", t = " << sim.time();
+    EXPECT_GT(sim.stats().tc_collisions, 0);
+    EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
+  }
+}
+
+TEST(InelasticCollapse, ChatteringLinkersExhaustABudgetWithAShortContactTime) {
+  // The same box with the old window of 1e-7 spends the whole budget in the
+  // first chatter (t ~ 6.05): the failure the default is chosen against.
+  SimParams p = chattering_linkers(false, 50'000);
+  p.run.tc_time = 1e-7;
+  Simulation sim(p, build_scene(p, 3, 0, nullptr));
+  EXPECT_EQ(sim.run(), Termination::EventBudget);
+  EXPECT_LT(sim.time(), 7.0);
+}
+
 TEST(Scene, SegregatedAndMixedRouting) {
   SimParams p;
   p.init.alpha = 0.0;

@@ -120,7 +120,7 @@ struct RunParams {
   int mser_check_every = 50;          // samples between tests
   std::int64_t max_events = 0;        // event budget; 0 = unlimited
   double contact_tolerance = 1e-9;    // gap at which a non-closed-form contact fires
-  double tc_time = 1e-7;              // TC model (Luding & McNamara 1998) collision-time window
+  double tc_time = 1e-4;              // TC model (Luding & McNamara 1998) collision-time window (docs/ARCHITECTURE.md)
   double min_separation_speed = 1e-6; // floor of a contact's normal separation speed (ContactLaw)
   double cell_size = 0.0;             // neighbour-cell edge; 0 = automatic
   bool validate = false;              // check invariants after every event
