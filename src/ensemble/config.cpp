@@ -155,7 +155,7 @@ std::string join(const std::vector<std::string>& items, const char* sep) {
 // ---- ranges ----------------------------------------------------------------
 
 struct Range {
-  enum class Kind { Any, Greater, AtLeast, Closed, LeftOpen };
+  enum class Kind { Any, Greater, AtLeast, Closed };
   Kind kind = Kind::Any;
   double lo = 0.0;
   double hi = 0.0;
@@ -164,7 +164,6 @@ struct Range {
 constexpr Range greater(double lo) { return {Range::Kind::Greater, lo, 0.0}; }
 constexpr Range at_least(double lo) { return {Range::Kind::AtLeast, lo, 0.0}; }
 constexpr Range closed(double lo, double hi) { return {Range::Kind::Closed, lo, hi}; }
-constexpr Range left_open(double lo, double hi) { return {Range::Kind::LeftOpen, lo, hi}; }
 constexpr Range any() { return {}; }
 
 bool in_range(const Range& r, double x) {
@@ -173,19 +172,17 @@ bool in_range(const Range& r, double x) {
     case Range::Kind::Greater: return x > r.lo;
     case Range::Kind::AtLeast: return x >= r.lo;
     case Range::Kind::Closed: return x >= r.lo && x <= r.hi;
-    case Range::Kind::LeftOpen: return x > r.lo && x <= r.hi;
   }
   return false;
 }
 
-// "> 0", ">= 0", "in [0, 1]", "in (0, 0.001]"; empty for Any.
+// "> 0", ">= 0", "in [0, 1]"; empty for Any.
 std::string range_text(const Range& r) {
   switch (r.kind) {
     case Range::Kind::Any: return "";
     case Range::Kind::Greater: return "> " + format_real(r.lo);
     case Range::Kind::AtLeast: return ">= " + format_real(r.lo);
     case Range::Kind::Closed: return "in [" + format_real(r.lo) + ", " + format_real(r.hi) + "]";
-    case Range::Kind::LeftOpen: return "in (" + format_real(r.lo) + ", " + format_real(r.hi) + "]";
   }
   return "";
 }
