@@ -36,9 +36,8 @@ import pathlib
 import statistics
 import sys
 
-from scipy import stats
-
 from replicate_runner import run_cached
+from summarize_scenarios import mean_ci
 
 OBSERVABLES = ["N_t", "N_tar", "M_mono", "bonds", "Phi_viab"]
 
@@ -98,34 +97,30 @@ def ok(row):
     return row["termination"] != "error"
 
 
-def paired(ref, rows, key):
-    """Mean and 95 % CI half-width of rows[key] - ref[key], paired by replicate."""
-    d = [r[key] - q[key] for r, q in zip(rows, ref)
+def paired(base, rows, key):
+    """Mean and 95 % CI half-width of rows[key] - base[key], paired by
+    replicate, over the pairs where both finished and the value is defined."""
+    d = [r[key] - q[key] for r, q in zip(rows, base)
          if ok(r) and ok(q) and r.get(key) is not None and q.get(key) is not None]
-    if len(d) < 2:
-        return float("nan"), float("nan")
-    half = stats.t.ppf(0.975, len(d) - 1) * statistics.stdev(d) / math.sqrt(len(d))
-    return statistics.fmean(d), half
+    m, half, _ = mean_ci(d)
+    return m, half
 
 
 def summarize(scen, knob, label, is_default, rows, ref, default, t_max):
-    good = [r for r in rows if ok(r)] or rows
-    walls = [r["wall_seconds"] for r in good]
+    """One CSV row. Failed replicates are counted and left out of every
+    other column (all failed: NaN)."""
+    good = [r for r in rows if ok(r)]
+    nan = float("nan")
+    median = lambda vals: statistics.median(vals) if vals else nan
     row = {"scenario": scen, "knob": knob, "value": label, "default": int(is_default),
            "R": len(rows), "t_max": t_max,
-           "median_wall_s": statistics.median(walls),
-           "median_events": statistics.median(r["events"] for r in rows),
-           "t_end_mean": statistics.fmean(r["t_end"] for r in rows),
-           "failed": sum(r["termination"] == "error" for r in rows)}
+           "median_wall_s": median([r["wall_seconds"] for r in good]),
+           "median_events": median([r["events"] for r in good]),
+           "failed": len(rows) - len(good)}
     for key in OBSERVABLES:
-        vals = [r[key] for r in good if r.get(key) is not None]
-        row[f"{key}_mean"] = statistics.fmean(vals) if vals else float("nan")
-        dev, half = paired(ref, rows, key) if ref is not None else (float("nan"), float("nan"))
-        row[f"{key}_dev"] = dev
-        row[f"{key}_dev_ci"] = half
-        dev, half = paired(default, rows, key)
-        row[f"{key}_vs_default"] = dev
-        row[f"{key}_vs_default_ci"] = half
+        row[f"{key}_mean"] = mean_ci([r[key] for r in good])[0]
+        for col, base in (("dev", ref), ("vs_default", default)):
+            row[f"{key}_{col}"], row[f"{key}_{col}_ci"] = paired(base, rows, key)
     return row
 
 
@@ -183,14 +178,17 @@ def main():
     ap.add_argument("--knobs", default="", help="only these knobs (comma list of names)")
     ap.add_argument("--plot-only", action="store_true", help="re-plot OUT/speed_accuracy.csv")
     a = ap.parse_args()
-    for name, v in [("--replicates", a.replicates), ("--jobs", a.jobs)]:
-        if v < 1 or (name == "--replicates" and v < 2):
-            sys.exit(f"speed_accuracy: {name} = {v}: must be >= {2 if name == '--replicates' else 1}")
+    if a.replicates < 2:
+        sys.exit(f"speed_accuracy: --replicates = {a.replicates}: must be >= 2 (a CI needs two pairs)")
+    if a.jobs < 1:
+        sys.exit(f"speed_accuracy: --jobs = {a.jobs}: must be >= 1")
     for name, v in [("--t-max-4", a.t_max_4), ("--t-max-5", a.t_max_5)]:
         if not (v > 0 and math.isfinite(v)):
             sys.exit(f"speed_accuracy: {name} = {v}: must be a finite number > 0")
     csv_path, png_path = a.out / "speed_accuracy.csv", a.out / "speed_accuracy.png"
     if a.plot_only:
+        if not csv_path.is_file():
+            sys.exit(f"speed_accuracy: --plot-only: no {csv_path} (run without --plot-only first)")
         with open(csv_path) as f:
             rows = [{k: (float(v) if k not in ("scenario", "knob", "value") else v) for k, v in r.items()}
                     for r in csv.DictReader(f)]
