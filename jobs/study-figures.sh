@@ -59,8 +59,7 @@ done
 [ -n "$outdir" ] || die "no OUTDIR (see --help)"
 [ -d "$outdir" ] || die "OUTDIR $outdir is not a directory"
 is_count "$jobs" || die "--jobs must be a positive integer, not '$jobs'"
-ranks=1  # not used here; check_study_values checks it
-check_study_values
+check_seed
 check_sets
 explicit=${#scenarios[@]}
 resolve_scenarios
@@ -85,31 +84,39 @@ mkdir -p "$fig" || die "cannot create $fig"
 
 set_args=()
 for s in "${sets[@]}"; do set_args+=(--set "$s"); done
-# One line per re-run: kind, scenario file, name. xargs runs them $jobs at a time.
+# The re-runs, $jobs at a time as background jobs (set_args stays an array).
 rerun_one() {
   local kind=$1 file=$2 name=$3
   case "$kind" in
     series)
       [ -f "$fig/${name}_r0.h5" ] && return 0
       "$ringsim" run "$file" --replicates 1 --seed "$seed" --series --progress none \
-        -o "$fig/${name}_r0.h5.part" "${set_args[@]}" > "$fig/${name}_r0.log" 2>&1 && mv "$fig/${name}_r0.h5.part" "$fig/${name}_r0.h5" ;;
+        -o "$fig/${name}_r0.h5.part" "${set_args[@]}" > "$fig/${name}_r0.log" 2>&1 &&
+        mv "$fig/${name}_r0.h5.part" "$fig/${name}_r0.h5" ;;
     snapshot)
       [ -f "$fig/${name}_r0.json" ] && return 0
       "$ringsim" replicate "$file" --seed "$seed" --replicate 0 --json --snapshot "$fig/$name.xyz" \
-        "${set_args[@]}" > "$fig/${name}_r0.json.part" && mv "$fig/${name}_r0.json.part" "$fig/${name}_r0.json" ;;
+        "${set_args[@]}" > "$fig/${name}_r0.json.part" &&
+        mv "$fig/${name}_r0.json.part" "$fig/${name}_r0.json" ;;
   esac
 }
-export -f rerun_one
-export fig seed ringsim
-export set_args_str="${set_args[*]}"
-list=()
+failed=0
+running=0
 for i in "${todo[@]}"; do
-  list+=("series ${scenarios[$i]} ${names[$i]}" "snapshot ${scenarios[$i]} ${names[$i]}")
+  for kind in series snapshot; do
+    if [ "$running" -ge "$jobs" ]; then
+      wait -n || failed=1
+      running=$((running - 1))
+    fi
+    rerun_one "$kind" "${scenarios[$i]}" "${names[$i]}" &
+    running=$((running + 1))
+  done
 done
-# set_args cannot cross into xargs' shells as an array: re-split the string
-# (--set values with spaces are not supported here).
-printf '%s\n' "${list[@]}" | xargs -P "$jobs" -L 1 bash -c \
-  'read -r -a set_args <<< "$set_args_str"; rerun_one "$@"' _ || die "a re-run failed (see above)"
+while [ "$running" -gt 0 ]; do
+  wait -n || failed=1
+  running=$((running - 1))
+done
+[ "$failed" = 0 ] || die "a re-run failed (see above and $fig/*_r0.log)"
 
 series=()
 for i in "${todo[@]}"; do series+=("$fig/${names[$i]}_r0.h5"); done

@@ -26,6 +26,7 @@
 #   study_defaults          the defaults of the shared options
 #   take_study_option ARGS... parse a shared option or a scenario at the
 #                           head of ARGS; sets nargs, the count to shift
+#   check_seed              --seed is well-formed
 #   check_study_values      --replicates, --seed and --ranks are well-formed
 #   check_sets [--one-line] every --set value is KEY=VALUE (and one line)
 #   resolve_scenarios [--absolute]  default scenarios, existence, unique names
@@ -73,9 +74,11 @@ take_study_option() {
   esac
 }
 
+check_seed() { [[ $seed =~ ^[0-9]+$ ]] || die "--seed must be a non-negative integer, not '$seed'"; }
+
 check_study_values() {
   is_count "$replicates" || die "--replicates must be a positive integer, not '$replicates'"
-  [[ $seed =~ ^[0-9]+$ ]] || die "--seed must be a non-negative integer, not '$seed'"
+  check_seed
   is_count "$ranks" || die "--ranks must be a positive integer, not '$ranks'"
 }
 
