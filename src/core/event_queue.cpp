@@ -7,20 +7,18 @@ namespace ringsim {
 void TournamentQueue::reset(int bodies) {
   leaves_ = 1;
   while (leaves_ < bodies) leaves_ *= 2;
-  times_.assign(leaves_, std::numeric_limits<double>::infinity());
-  tree_.assign(2 * leaves_, 0);
-  for (int i = 0; i < leaves_; ++i) tree_[leaves_ + i] = i;
-  for (int k = leaves_ - 1; k >= 1; --k) {
-    const int a = tree_[2 * k], b = tree_[2 * k + 1];
-    tree_[k] = earlier(a, b) ? a : b;
-  }
+  tree_.assign(2 * leaves_, Node{std::numeric_limits<double>::infinity(), 0});
+  for (int i = 0; i < leaves_; ++i) tree_[leaves_ + i].body = i;
+  for (int k = leaves_ - 1; k >= 1; --k) tree_[k] = earlier(tree_[2 * k], tree_[2 * k + 1]);
 }
 
 void TournamentQueue::update(int body, double time) {
-  times_[body] = time;
-  for (int k = (leaves_ + body) >> 1; k >= 1; k >>= 1) {
-    const int a = tree_[2 * k], b = tree_[2 * k + 1];
-    tree_[k] = earlier(a, b) ? a : b;
+  int k = leaves_ + body;
+  tree_[k].time = time;
+  for (k >>= 1; k >= 1; k >>= 1) {
+    const Node w = earlier(tree_[2 * k], tree_[2 * k + 1]);
+    if (w.body == tree_[k].body && w.time == tree_[k].time) break;  // nothing above changes
+    tree_[k] = w;
   }
 }
 

@@ -8,7 +8,10 @@
 //
 // Implementations (a coarse plug-in, hence the virtual interface):
 //  - TournamentQueue: a complete binary tournament tree over the bodies;
-//    update is O(log N) with one comparison per level, no allocation.
+//    update is O(log N) with one comparison per level, no allocation. Each
+//    node holds its winner's time with its id (no indirect load per level),
+//    and an update stops at the first node whose winner and time are
+//    unchanged: nothing above it can change.
 //  - ReferenceQueue: a linear scan; slow and obviously correct, for tests.
 
 #include <memory>
@@ -31,16 +34,19 @@ class TournamentQueue final : public EventQueue {
  public:
   void reset(int bodies) override;
   void update(int body, double time) override;
-  int top() const override { return tree_[1]; }
-  double time(int body) const override { return times_[body]; }
+  int top() const override { return tree_[1].body; }
+  double time(int body) const override { return tree_[leaves_ + body].time; }
 
  private:
-  bool earlier(int a, int b) const {
-    return times_[a] < times_[b] || (times_[a] == times_[b] && a < b);
+  struct Node {
+    double time;
+    int body;
+  };
+  static const Node& earlier(const Node& a, const Node& b) {
+    return a.time < b.time || (a.time == b.time && a.body < b.body) ? a : b;
   }
   int leaves_ = 1;
-  std::vector<double> times_;  // size leaves_, padding = +inf
-  std::vector<int> tree_;      // size 2 * leaves_; node k holds the winner of its subtree
+  std::vector<Node> tree_;  // size 2 * leaves_; node k: winner of its subtree; leaves padded with +inf
 };
 
 class ReferenceQueue final : public EventQueue {
