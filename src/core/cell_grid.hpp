@@ -58,6 +58,32 @@ class CellGrid {
     }
   }
 
+  // True when the 27 cells around any cell are distinct (a periodic box needs
+  // at least 3 cells per side), which for_each_face relies on.
+  bool faces_distinct() const { return !periodic_ || n_ >= 3; }
+
+  // Calls f(j) for every body j in the 9 cells that became adjacent when a
+  // body entered cell c across face (dim, dir): those at offset dir along dim.
+  template <class F>
+  void for_each_face(int c, int dim, int dir, F&& f) const {
+    const auto cc = coords(c);
+    const int d1 = (dim + 1) % 3, d2 = (dim + 2) % 3;
+    for (int a = -1; a <= 1; ++a) {
+      for (int b = -1; b <= 1; ++b) {
+        std::array<int, 3> q = cc;
+        q[dim] += dir;
+        q[d1] += a;
+        q[d2] += b;
+        if (periodic_) {
+          for (int& x : q) x = wrap(x);
+        } else if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= n_ || q[1] >= n_ || q[2] >= n_) {
+          continue;
+        }
+        for (int j = head_[index(q[0], q[1], q[2])]; j >= 0; j = next_[j]) f(j);
+      }
+    }
+  }
+
  private:
   int wrap(int i) const { return i < 0 ? i + n_ : (i >= n_ ? i - n_ : i); }
   void unlink(int body);

@@ -123,6 +123,7 @@ struct RunParams {
   double tc_time = 1e-4;              // TC model (Luding & McNamara 1998) collision-time window (docs/ARCHITECTURE.md)
   double min_separation_speed = 1e-6; // floor of a contact's normal separation speed (ContactLaw)
   double cell_size = 0.0;             // neighbour-cell edge; 0 = automatic
+  int sphere_candidates = 4;          // hard-sphere gas: collisions kept per body (Simulation::predict_sphere); 0 = off
   bool validate = false;              // check invariants after every event
   QueueKind queue = QueueKind::Fast;
 };

@@ -83,16 +83,7 @@ FeatureNormal feature_at(const Vec3& p, const Vec3& center, const Vec3& axis, co
 double Predictor::sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const {
   const Kinematics &ki = b_.kin[i], &kj = b_.kin[j];
   const Vec3 dx = box_.min_image(position_at(kj, t) - xi);
-  const Vec3 dv = kj.v - ki.v;
-  const double b = dx.dot(dv);
-  if (b >= 0.0) return kNever;  // not approaching
-  const double sigma = b_.sp(i).radius + b_.sp(j).radius;
-  const double c = dx.squaredNorm() - sigma * sigma;
-  if (c <= 0.0) return t;       // touching (rounding) and approaching
-  const double a = dv.squaredNorm();
-  const double disc = b * b - a * c;
-  if (disc < 0.0) return kNever;
-  const double dt = c / (-b + std::sqrt(disc));
+  const double dt = sphere_touch_time(dx, kj.v - ki.v, b_.sp(i).radius + b_.sp(j).radius);
   return t + dt < limit ? t + dt : kNever;
 }
 

@@ -23,6 +23,7 @@
 //   search that cannot finish reports failure and the replicate stops with an
 //   error.
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
 
@@ -51,6 +52,21 @@ struct Box {
     return d;
   }
 };
+
+// Time until two spheres with centre distance sigma at contact first touch,
+// from relative position dx and relative velocity dv (B minus A): the
+// smaller root of |dx + dv s| = sigma, in the cancellation-free form
+// c / (-b + sqrt(b^2 - a c)); 0 if touching and approaching, infinity if they
+// do not approach or miss.
+inline double sphere_touch_time(const Vec3& dx, const Vec3& dv, double sigma) {
+  const double b = dx.dot(dv);
+  if (b >= 0.0) return kNever;  // not approaching
+  const double c = dx.squaredNorm() - sigma * sigma;
+  if (c <= 0.0) return 0.0;  // touching (rounding) and approaching
+  const double disc = b * b - dv.squaredNorm() * c;
+  if (disc < 0.0) return kNever;
+  return c / (-b + std::sqrt(disc));
+}
 
 // Geometry of a contact between bodies a and b at time t, in a's image frame.
 struct ContactGeometry {
@@ -126,6 +142,8 @@ class Predictor {
     std::uint64_t capture_searches = 0, cluster_pair_searches = 0;             // searches started
   };
   const SearchCounts& search_counts() const { return counts_; }
+  // Two free spheres: closed form (xi: i's centre at t); kNever if not before limit.
+  double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
   long plane_evaluations() const { return plane_evaluations_; }
   bool failed() const { return failed_; }
 
@@ -137,7 +155,6 @@ class Predictor {
   // (a certified step can fall below one ulp of t inside the contact band)
   // and lets a gap close by at most delta / 100 before a contact fires.
   double min_step(double bound) const { return delta_ / (100.0 * bound); }
-  double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
   double advance_pair(int i, int j, double t, double limit);
   bool wall_window(double x, double v, int dir, double reach, double t, double* start, double* end) const;
   // Pairs and walls with a cluster member: plain conservative advancement with

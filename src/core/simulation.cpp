@@ -88,6 +88,14 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   // Compliant clusters formed at t = 0 start their first slice.
   for (int g = 0; g < static_cast<int>(cgroups_.size()); ++g)
     if (cgroups_[g].alive && cgroups_[g].pending && termination_ == Termination::Running) begin_slice(g, 0.0);
+  sphere_k_ = params_.run.sphere_candidates;
+  sphere_gas_ = sphere_k_ > 0 && !params_.bonding.enabled && n_spheres_ == n;
+  if (sphere_gas_) {
+    sphere_list_.assign(static_cast<std::size_t>(n) * sphere_k_, SphereCandidate{kNever, -1, 0});
+    sphere_count_.assign(n, 0);
+    sphere_floor_.assign(n, kNever);
+    sphere_own_.assign(n, Event{});
+  }
   queue_->reset(n);
   for (int i = 0; i < n; ++i) predict(i, 0.0);
   if (params_.bonding.enabled && termination_ == Termination::Running && !bond_possible())
@@ -96,19 +104,97 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
 
 Simulation::~Simulation() = default;
 
+Event Simulation::free_body_exit(int i, double t, const Vec3& xi) {
+  Event e;
+  e.type = EventType::CellCross;
+  const CellGrid::Exit ex = grid_.exit_time(grid_.cell_of_body(i), xi, bodies_.kin[i].v);
+  e.time = t + ex.dt;
+  e.dim = static_cast<std::int8_t>(ex.dim);
+  e.dir = static_cast<std::int8_t>(ex.dir);
+  take_earlier_wall(i, t, &e);
+  return e;
+}
+
+void Simulation::take_earlier_wall(int i, double t, Event* e) {
+  if (box_.periodic) return;
+  const WallHit w = predictor_.wall(i, t, e->time);
+  if (w.time < e->time) {
+    e->time = w.time;
+    e->type = EventType::Wall;
+    e->dim = static_cast<std::int8_t>(w.dim);
+    e->dir = static_cast<std::int8_t>(w.dir);
+  }
+}
+
+void Simulation::predict_sphere(int i, double t, SphereScan scan, int dim, int dir) {
+  const int k_max = sphere_k_;
+  SphereCandidate* list = &sphere_list_[static_cast<std::size_t>(i) * k_max];
+  int& n = sphere_count_[i];
+  double& floor = sphere_floor_[i];
+  Event& own = sphere_own_[i];
+  if (scan == SphereScan::Full) {
+    n = 0;
+    floor = kNever;
+  } else {
+    int kept = 0;  // drop pairs whose partner has changed trajectory
+    for (int k = 0; k < n; ++k)
+      if (bodies_.counter[list[k].partner] == list[k].partner_counter) list[kept++] = list[k];
+    n = kept;
+  }
+  const Kinematics& ki = bodies_.kin[i];
+  const Vec3 xi = position_at(ki, t);
+  const double sigma = 2.0 * bodies_.sp(i).radius;  // one species: every body is a sphere
+  auto insert = [&](int j) {
+    if (j == i) return;
+    const Kinematics& kj = bodies_.kin[j];
+    const double tc = t + sphere_touch_time(box_.min_image(position_at(kj, t) - xi), kj.v - ki.v, sigma);
+    if (tc >= kNever) return;
+    if (n == k_max) {
+      // The latest of the K + 1 leaves the list; it bounds all left out.
+      if (tc >= list[n - 1].time) {
+        floor = std::min(floor, tc);
+        return;
+      }
+      floor = std::min(floor, list[n - 1].time);
+      --n;
+    }
+    int k = n++;
+    for (; k > 0 && list[k - 1].time > tc; --k) list[k] = list[k - 1];
+    list[k] = SphereCandidate{tc, j, bodies_.counter[j]};
+  };
+  if (scan == SphereScan::Full) grid_.for_each_near(grid_.cell_of_body(i), insert);
+  if (scan == SphereScan::Crossing) grid_.for_each_face(grid_.cell_of_body(i), dim, dir, insert);
+  if (scan != SphereScan::Stale) own = free_body_exit(i, t, xi);
+  const double first = n > 0 ? list[0].time : kNever;
+  if (std::min(first, own.time) > floor) {
+    // Pairs left out of the list may come first: scan everything again.
+    predict_sphere(i, t, SphereScan::Full);
+    return;
+  }
+  Event best = own;
+  if (first <= own.time) {
+    best.time = first;
+    best.type = EventType::Collision;
+    best.partner = list[0].partner;
+    best.partner_counter = list[0].partner_counter;
+  }
+  events_[i] = best;
+  queue_->update(i, best.time);
+}
+
 void Simulation::predict(int i, double t) {
+  if (sphere_gas_) {
+    predict_sphere(i, t, SphereScan::Full);
+    return;
+  }
   const int gi = bodies_.group[i];
   const int ci = bodies_.cgroup[i];
   const Vec3 xi = reference_center(bodies_, i, t);
   Event best;
-  best.type = EventType::CellCross;
   if (gi < 0 && ci < 0) {
-    const Kinematics& k = bodies_.kin[i];
-    const CellGrid::Exit ex = grid_.exit_time(grid_.cell_of_body(i), xi, k.v);
-    best.time = t + ex.dt;
-    best.dim = static_cast<std::int8_t>(ex.dim);
-    best.dir = static_cast<std::int8_t>(ex.dir);
+    best = free_body_exit(i, t, xi);
   } else {
+    best.type = EventType::CellCross;
     // A member's centre turns with its cluster: find when it leaves its cell,
     // looking ahead at most the time to cross one cell at the largest speed
     // (then a relocation event re-checks), which also bounds every search below.
@@ -125,15 +211,7 @@ void Simulation::predict(int i, double t) {
       best.time = slice_end;
       best.type = EventType::Slice;
     }
-  }
-  if (!box_.periodic) {
-    const WallHit w = predictor_.wall(i, t, best.time);
-    if (w.time < best.time) {
-      best.time = w.time;
-      best.type = EventType::Wall;
-      best.dim = static_cast<std::int8_t>(w.dim);
-      best.dir = static_cast<std::int8_t>(w.dir);
-    }
+    take_earlier_wall(i, t, &best);
   }
   auto consider = [&](int j, double tc) {
     if (tc < best.time) {
@@ -428,6 +506,12 @@ void Simulation::process_cell(int i, const Event& ev, double t) {
       if (wrapped) bodies_.kin[i].x[ev.dim] -= ev.dir * box_.length;
       grid_.move(i, next);
     }
+    if (sphere_gas_) {
+      ++stats_.cell_crossings;
+      if (next >= 0 && grid_.faces_distinct()) predict_sphere(i, t, SphereScan::Crossing, ev.dim, ev.dir);
+      else predict_sphere(i, t, SphereScan::Full);
+      return;
+    }
   }
   ++stats_.cell_crossings;
   predict(i, t);
@@ -469,7 +553,8 @@ bool Simulation::step() {
     case EventType::Capture:
       if (bodies_.counter[ev.partner] != ev.partner_counter) {
         ++stats_.stale;
-        predict(i, ev.time);
+        if (sphere_gas_) predict_sphere(i, ev.time, SphereScan::Stale);
+        else predict(i, ev.time);
         return true;
       }
       if (log_on_) log_.push_back({ev.time, ev.type, i, ev.partner});

@@ -171,6 +171,27 @@ class Simulation {
  private:
   void predict(int i, double t);
   void predict_group(int i, double t);  // i and, for a member, its whole cluster
+  // A free body's own event: leaving its cell, or hitting a wall first.
+  Event free_body_exit(int i, double t, const Vec3& xi);
+  // Replaces *e by i's wall hit (reflective box) if that comes first.
+  void take_earlier_wall(int i, double t, Event* e);
+  // Hard-sphere gas (no linkers, no bonding; run.sphere_candidates = K > 0).
+  // Every body keeps the K earliest collisions of its neighbourhood, each
+  // found without a horizon, and `floor`: no pair left out of the list (with
+  // both trajectories unchanged) collides before it. A pair whose partner's
+  // trajectory has changed since is dropped: the partner's own prediction
+  // after that change saw this body on its present trajectory. So a cell
+  // crossing scans only the 9 cells that became adjacent (Crossing), and a
+  // stale collision falls back on the next candidate (Stale); only when the
+  // earliest remaining one lies past `floor` is the full neighbourhood
+  // scanned again (Full, also after every impulse).
+  enum class SphereScan { Full, Stale, Crossing };
+  void predict_sphere(int i, double t, SphereScan scan, int dim = 0, int dir = 0);
+  struct SphereCandidate {
+    double time;
+    int partner;
+    std::uint32_t partner_counter;
+  };
   void bump(int i, double t);           // trajectory of i's group changed at t
   void process_capture(int i, const Event& ev, double t);
   // Bond rules (MODEL.md) for sphere s and end `end` of linker l at time t.
@@ -231,6 +252,12 @@ class Simulation {
   double memo_pair(int i, int j, double t, double limit, const Vec3& xi);
   std::vector<std::vector<PairMemo>> memo_;
   std::vector<PairMemo> memo_scratch_;
+  bool sphere_gas_ = false;                    // predict_sphere applies
+  int sphere_k_ = 0;                           // run.sphere_candidates
+  std::vector<SphereCandidate> sphere_list_;   // K per body, earliest first
+  std::vector<int> sphere_count_;              // entries in use per body
+  std::vector<double> sphere_floor_;
+  std::vector<Event> sphere_own_;              // the body's crossing or wall hit
   double now_ = 0.0;
   RunStats stats_;
   Termination termination_ = Termination::Running;

@@ -400,6 +400,9 @@ const std::vector<KeyDesc>& key_table() {
           "floor of the normal separation speed a contact leaves (stops resting contacts bouncing for ever inside the contact band); 0 = off"),
       key<&S::run, &R::cell_size>("run.cell_size", at_least(0),
           "edge of the neighbour-search cells; 0 = automatic"),
+      key<&S::run, &R::sphere_candidates>("run.sphere_candidates", closed(0, 64),
+          "hard-sphere gas (no linkers, bonding off): earliest collisions each sphere keeps, so a cell "
+          "crossing scans only the 9 newly adjacent cells; 0 = off (every prediction scans all 27)"),
       key<&S::run, &R::validate>("run.validate", any(),
           "check whole-state invariants after every event (slow; for debugging)"),
       key<&S::run, &R::queue>("run.queue", any(),
