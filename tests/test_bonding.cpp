@@ -199,6 +199,63 @@ TEST(RestingContact, ClustersTouchingAtRestAreSearchedWithFewSteps) {
               static_cast<unsigned long long>(pred.search_counts().cluster_pair));
 }
 
+// Predictor::proven_until (kept by the pair memo): after a search that found
+// no contact before its limit, the gap stays above half the contact band
+// (the level every certified step keeps) all the way to the proven time, not
+// only to the limit. Random approaching pairs: two free linkers, and a linker
+// against a member of a turning two-body cluster.
+TEST(PairSearch, ProvenUntilIsAProof) {
+  SimParams p = bonding_params();
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto unit = [&] {
+    Vec3 v(u(rng), u(rng), u(rng));
+    return Vec3(v.normalized());
+  };
+  const double delta = p.run.contact_tolerance;
+  int beyond = 0, never = 0, hits = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const bool cluster = trial % 2 == 1;
+    const Vec3 c(20.0, 20.0, 20.0);
+    const Vec3 off = 7.0 * unit();
+    // Aimed at the other body, or (every third trial) passing 9 to the side.
+    const Vec3 side = off.cross(unit()).normalized();
+    const Vec3 aim = trial % 3 == 0 ? Vec3(9.0 * side - off) : Vec3(-off);
+    const Vec3 v = aim.normalized() + 0.1 * unit();
+    std::vector<Init> init;
+    if (cluster) init.push_back({Shape::Sphere, c + off + 3.2 * Vec3::UnitZ(), v, kZero, kZero});
+    init.push_back({Shape::Linker, c + off, v, Vec3::UnitZ(), 0.8 * unit()});
+    init.push_back({Shape::Linker, c, 0.2 * unit(), unit(), 0.8 * unit()});
+    BodyStore b = make_bodies(p, init);
+    b.free_all();
+    const Box box{40.0, false};
+    if (cluster) merge_groups(b, box, 0, 1, 0.0);  // the sphere and the first linker, turning
+    const int i = cluster ? 1 : 0, j = i + 1;
+    Predictor pred(b, box, delta);
+    const double limit = 1.0 + 7.0 * (trial % 5) / 4.0;
+    if (pred.pair(i, j, 0.0, limit, reference_center(b, i, 0.0)) < kNever) {
+      ++hits;
+      continue;
+    }
+    const double proven = pred.proven_until();
+    ASSERT_GE(proven, limit) << "trial " << trial;
+    if (proven == kNever) ++never;
+    else if (proven > limit) ++beyond;
+    const double until = std::min(proven, 60.0);
+    for (int k = 0; k <= 6000; ++k) {
+      const double s = until * k / 6000.0;
+      if (s >= proven) break;
+      ASSERT_GT(pred.contact_geometry(i, j, s).sep.distance, 0.5 * delta * (1.0 - 1e-6))
+          << "trial " << trial << " at t = " << s << ", proven to " << proven;
+    }
+  }
+  std::printf("proofs: %d beyond the limit, %d for ever; %d contacts\n", beyond, never, hits);
+  // Each kind of proof occurred (the test is not vacuous).
+  EXPECT_GT(beyond, 5);
+  EXPECT_GT(never, 5);
+  EXPECT_GT(hits, 5);
+}
+
 // A perfect square (MODEL.md target): corner spheres S0..S3, linkers L0..L3
 // on the edges (L_k from S_k to S_k+1), every end at centre distance
 // r_S + g from its sphere, g = 0.05 < r_c. Half A = S0 L0 S1 L1 starts

@@ -99,7 +99,11 @@ double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
 
 double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
   if (in_cluster(b_, i) || in_cluster(b_, j)) return advance_generic(i, j, t, limit);
-  if (b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) return sphere_sphere(i, j, t, limit, xi);
+  if (b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) {
+    const double tc = sphere_sphere(i, j, t, kNever, xi);
+    proven_until_ = tc;
+    return tc < limit ? tc : kNever;
+  }
   return advance_pair(i, j, t, limit);
 }
 
@@ -148,6 +152,7 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
   const Species &si = b_.sp(i), &sj = b_.sp(j);
   const Vec3 dx = box_.min_image(position_at(kj, t) - position_at(ki, t));
   const Vec3 dv = kj.v - ki.v;
+  proven_until_ = kNever;
   double enter, leave;
   if (!sphere_window(dx, dv, si.bounding_radius + sj.bounding_radius + delta_, &enter, &leave)) return kNever;
   double s = t + enter;
@@ -155,7 +160,10 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
   const double bound = dv.norm() + shape_rotation_speed(ki, si) + shape_rotation_speed(kj, sj);
   if (bound == 0.0) return kNever;  // rigidly fixed relative pose: the gap never changes
   for (int step = 0; step < kMaxSteps; ++step) {
-    if (s >= end) return kNever;
+    if (s >= end) {
+      if (t + leave >= limit) proven_until_ = s;  // else the window closed: never
+      return kNever;
+    }
     ++ca_iterations_;
     const ContactGeometry g = contact_geometry(i, j, s);
     const double d = g.sep.distance;

@@ -146,6 +146,13 @@ class Predictor {
   double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
   long plane_evaluations() const { return plane_evaluations_; }
   bool failed() const { return failed_; }
+  // After pair() found no contact before its limit: no contact before this
+  // time either (>= the limit; infinity when the bounding spheres never meet
+  // again, or the pair never touches). A search stops at the first step that
+  // reaches its limit, and that step is certified to its end, so the proof
+  // often reaches beyond the limit; the pair memo (Simulation::memo_pair)
+  // keeps it, so a later prediction with a later horizon resumes from there.
+  double proven_until() const { return proven_until_; }
 
   // Safety net against a search that cannot converge (it reports, never skips).
   static constexpr int kMaxSteps = 10'000'000;
@@ -183,6 +190,7 @@ class Predictor {
   SearchCounts counts_;
   long plane_evaluations_ = 0;
   bool failed_ = false;
+  double proven_until_ = 0.0;
 };
 
 }  // namespace ringsim

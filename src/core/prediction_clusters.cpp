@@ -29,7 +29,10 @@ bool Predictor::wall_window(double x, double v, int dir, double reach, double t,
 }
 
 double Predictor::advance_generic(int i, int j, double t, double limit) {
-  limit = std::min({limit, motion_horizon(b_, i), motion_horizon(b_, j)});
+  // Past a compliant member's motion horizon its trajectory is not known yet.
+  const double known = std::min(motion_horizon(b_, i), motion_horizon(b_, j));
+  limit = std::min(limit, known);
+  proven_until_ = known;
   const Vec3 dx = box_.min_image(reference_center(b_, j, t) - reference_center(b_, i, t));
   const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
   double enter, leave;
@@ -41,7 +44,10 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
   const double bound = dv.norm() + rotation_bound(b_, i) + rotation_bound(b_, j);
   if (bound == 0.0) return kNever;
   for (int step = 0; step < kMaxSteps; ++step) {
-    if (s >= end) return kNever;
+    if (s >= end) {
+      if (t + leave >= limit) proven_until_ = s;  // else the window closed: never
+      return kNever;
+    }
     ++ca_iterations_;
     ++counts_.cluster_pair;
     const ContactGeometry g = contact_geometry(i, j, s);
