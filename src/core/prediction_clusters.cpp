@@ -267,7 +267,9 @@ double Predictor::capture(int l, int end, int s, double t, double limit, double 
   if (bound == 0.0) return kNever;
   const double floor_step = min_step(bound);
   double x = t;
-  double g = capture_gap(l, end, s, x, rc);
+  // A window that opens later means the gap at t exceeds 2 delta (the
+  // window's radius includes rc + 2 delta): no need to evaluate it.
+  double g = enter > 0.0 ? kNever : capture_gap(l, end, s, x, rc);
   // Inside the shell or its firing band: first find the way out (to beyond
   // 2 delta, a hysteresis that keeps a failed capture from firing again).
   for (int step = 0; g <= (step == 0 ? delta_ : 2.0 * delta_); ++step) {
