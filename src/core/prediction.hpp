@@ -158,8 +158,8 @@ class Predictor {
   double min_step(double bound) const { return delta_ / (100.0 * bound); }
   // Lower bound above which linker pairs step from the capsule bound instead
   // of the exact distance (bound_geometry; 0.02 measured, docs/PERFORMANCE.md).
-  // Never below 1e3 delta, where the steps switch
-  // to the ranked feature normals, so no contact can fire from the bound.
+  // Never below 1e3 delta, where the steps switch to the ranked feature
+  // normals, so no contact can fire from the bound.
   double capsule_far() const { return std::max(kCapsuleFar, 1e3 * delta_); }
   static constexpr double kCapsuleFar = 0.02;
   double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
