@@ -2,10 +2,12 @@
 // reference set ../shared/testdata/cylinder_distance.json.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -289,6 +291,166 @@ TEST(CylinderCylinder, RandomPosesAgreeWithFcl) {
   }
   EXPECT_GT(separated, 500);
   EXPECT_GT(overlapping, 500);
+}
+
+// ---- segment-segment and capsule distance -----------------------------------------
+
+// Exact distance from point p to the segment c + s u, |s| <= h (closed form).
+double point_segment(const Vec3& p, const Vec3& c, const Vec3& u, double h) {
+  const double s = std::min(std::max((p - c).dot(u), -h), h);
+  return (p - c - s * u).norm();
+}
+
+// Brute force: sample A's parameter densely with the exact point-to-segment
+// distance to B, then refine around the best sample by golden section
+// (D(s) = dist(c_a + s u_a, segment B) is convex in s, so the bracket around
+// the best sample holds the minimum).
+double brute_segment_distance(const Vec3& ca, const Vec3& ua, double ha, const Vec3& cb, const Vec3& ub, double hb) {
+  constexpr int kSamples = 2000;
+  auto D = [&](double s) { return point_segment(ca + s * ua, cb, ub, hb); };
+  int best = 0;
+  double best_d = D(-ha);
+  for (int k = 1; k <= kSamples; ++k) {
+    const double d = D(-ha + 2.0 * ha * k / kSamples);
+    if (d < best_d) best_d = d, best = k;
+  }
+  double lo = -ha + 2.0 * ha * std::max(best - 1, 0) / kSamples;
+  double hi = -ha + 2.0 * ha * std::min(best + 1, kSamples) / kSamples;
+  const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+  for (int it = 0; it < 200 && hi - lo > 1e-15; ++it) {
+    const double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+    if (D(x1) < D(x2)) hi = x2;
+    else lo = x1;
+  }
+  return std::min({best_d, D(lo), D(hi), D(0.5 * (lo + hi))});
+}
+
+TEST(SegmentSegment, HandCases) {
+  // Perpendicular, crossing at a distance 3 (interior points).
+  SegmentPair p = segment_segment(Vec3::Zero(), Vec3::UnitX(), 2.0, Vec3(0.5, 0.25, 3.0), Vec3::UnitY(), 1.0);
+  EXPECT_NEAR(p.distance, 3.0, 1e-15);
+  EXPECT_NEAR(p.s_a, 0.5, 1e-15);
+  EXPECT_NEAR(p.s_b, -0.25, 1e-15);
+  // Collinear, end to end with a gap 0.5.
+  p = segment_segment(Vec3::Zero(), Vec3::UnitX(), 2.0, Vec3(4.5, 0, 0), Vec3(-1, 0, 0), 2.0);
+  EXPECT_NEAR(p.distance, 0.5, 1e-15);
+  EXPECT_TRUE(p.point_a.isApprox(Vec3(2, 0, 0), 1e-15));
+  EXPECT_TRUE(p.point_b.isApprox(Vec3(2.5, 0, 0), 1e-15));
+  // Parallel, overlapping in projection: the line distance.
+  p = segment_segment(Vec3::Zero(), Vec3::UnitX(), 2.0, Vec3(1, 0.7, 0), Vec3::UnitX(), 2.0);
+  EXPECT_NEAR(p.distance, 0.7, 1e-15);
+  // Skew, both closest points clamped to ends: (2,0,0) and (3,1,0).
+  p = segment_segment(Vec3::Zero(), Vec3::UnitX(), 2.0, Vec3(3, 2, 0), Vec3::UnitY(), 1.0);
+  EXPECT_NEAR(p.distance, std::sqrt(2.0), 1e-15);
+  EXPECT_TRUE(p.point_b.isApprox(Vec3(3, 1, 0), 1e-15));
+  // Zero-length segments are points.
+  p = segment_segment(Vec3::Zero(), Vec3::UnitX(), 0.0, Vec3(0, 0, 2), Vec3::UnitY(), 0.0);
+  EXPECT_NEAR(p.distance, 2.0, 1e-15);
+}
+
+// Random segments, a third of them with parallel, antiparallel or
+// perpendicular directions, and collinear ones: the distance agrees with
+// brute force, the points lie on the segments and realise it.
+TEST(SegmentSegment, MatchesBruteForce) {
+  std::mt19937_64 rng(2024);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), pos(0.0, 1.0);
+  auto unit = [&] {
+    Vec3 v;
+    do v = Vec3(u(rng), u(rng), u(rng));
+    while (v.norm() > 1.0 || v.norm() < 0.1);
+    return Vec3(v.normalized());
+  };
+  double worst = 0.0;
+  for (int it = 0; it < 3000; ++it) {
+    const Vec3 ua = unit();
+    Vec3 ub = unit();
+    if (it % 6 == 1) ub = ua;
+    if (it % 6 == 2) ub = -ua;
+    if (it % 6 == 3) ub = ua.cross(ub).normalized();
+    if (it % 6 == 4) ub = (ua + 1e-9 * unit()).normalized();  // nearly parallel
+    const double ha = 3.0 * pos(rng), hb = 3.0 * pos(rng);
+    const Vec3 ca = Vec3(u(rng), u(rng), u(rng)), cb = it % 6 == 5 ? Vec3(ca + 6.0 * u(rng) * ua) : Vec3(5.0 * Vec3(u(rng), u(rng), u(rng)));
+    if (it % 6 == 5) ub = it % 2 ? ua : Vec3(-ua);  // collinear
+    const SegmentPair p = segment_segment(ca, ua, ha, cb, ub, hb);
+    const double ref = brute_segment_distance(ca, ua, ha, cb, ub, hb);
+    worst = std::max(worst, std::abs(p.distance - ref));
+    EXPECT_NEAR(p.distance, ref, 1e-12) << it;
+    EXPECT_LE(std::abs(p.s_a), ha) << it;
+    EXPECT_LE(std::abs(p.s_b), hb) << it;
+    EXPECT_TRUE(p.point_a.isApprox(ca + p.s_a * ua, 1e-14)) << it;
+    EXPECT_TRUE(p.point_b.isApprox(cb + p.s_b * ub, 1e-14)) << it;
+    EXPECT_NEAR((p.point_b - p.point_a).norm(), p.distance, 1e-14) << it;
+    // Symmetric under swapping the segments.
+    EXPECT_NEAR(segment_segment(cb, ub, hb, ca, ua, ha).distance, p.distance, 1e-12) << it;
+  }
+  std::printf("[ segment_segment ] max |d - brute force| over 3000 poses: %.3g\n", worst);
+}
+
+// The capsule (axis segment swept by a ball of the radius) contains the
+// cylinder, so its distance is a lower bound of the cylinder distance; equal
+// when both closest points of the cylinders are on their lateral surfaces.
+// Along the capsule normal the cylinders' separating-plane value is at least
+// the capsule distance (the bound advance_generic steps from).
+// `reference`: an independent distance, accurate to `ref_tol`.
+// Returns {checked, lateral-lateral} counts.
+std::pair<int, int> check_capsule_bound(const Cylinder& a, const Cylinder& b, double reference, double ref_tol,
+                                        const char* what, int it) {
+  const Separation cap = capsule_capsule(a, b);
+  const Separation cyl = cylinder_cylinder(a, b);
+  EXPECT_NEAR(cap.normal.norm(), 1.0, 1e-14) << what << " " << it;
+  EXPECT_LE(cap.distance, reference + ref_tol) << what << " " << it;
+  EXPECT_LE(cap.distance, cyl.distance + 1e-12) << what << " " << it;
+  const double plane = cap.normal.dot(b.center - a.center) - cylinder_support(a, cap.normal) - cylinder_support(b, -cap.normal);
+  EXPECT_GE(plane, cap.distance - 1e-12) << what << " " << it;
+  auto on_side = [](const Cylinder& c, const Vec3& p) {
+    return std::abs((p - c.center).dot(c.axis)) < c.half_length - 1e-6;
+  };
+  const bool lateral = on_side(a, cyl.point_a) && on_side(b, cyl.point_b);
+  if (lateral) EXPECT_NEAR(cap.distance, cyl.distance, 1e-12) << what << " " << it;
+  return {1, lateral ? 1 : 0};
+}
+
+TEST(CapsuleCapsule, LowerBoundOnReference) {
+  int lateral = 0, it = 0;
+  double worst_gap = 0.0;
+  for (const RefCase& c : reference()) {
+    // (the reference set is accurate to 3e-9, see check_reference)
+    lateral += check_capsule_bound(c.a, c.b, c.distance, 3e-9, "reference case", it++).second;
+    worst_gap = std::max(worst_gap, c.distance - capsule_capsule(c.a, c.b).distance);
+  }
+  EXPECT_GT(lateral, 20);
+  std::printf("[ capsule ] %d of %d reference cases lateral-lateral (equal); largest cylinder - capsule: %.3g\n",
+              lateral, it, worst_gap);
+}
+
+TEST(CapsuleCapsule, LowerBoundOnRandomPoses) {
+  std::mt19937_64 rng(777);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), pos(0.0, 1.0);
+  auto unit = [&] {
+    Vec3 v;
+    do v = Vec3(u(rng), u(rng), u(rng));
+    while (v.norm() > 1.0 || v.norm() < 0.1);
+    return Vec3(v.normalized());
+  };
+  int separated = 0, lateral = 0;
+  for (int it = 0; it < 3000; ++it) {
+    // Linkers (radius 1, half length 2) half the time, random sizes otherwise.
+    const bool linker = it % 2 == 0;
+    const Cylinder a{Vec3::Zero(), unit(), linker ? 1.0 : 0.2 + 1.5 * pos(rng), linker ? 2.0 : 0.05 + 3.0 * pos(rng)};
+    Vec3 ub = unit();
+    if (it % 6 == 1) ub = a.axis;
+    if (it % 6 == 3) ub = a.axis.cross(ub).normalized();
+    const double rb = linker ? 1.0 : 0.2 + 1.5 * pos(rng), hb = linker ? 2.0 : 0.05 + 3.0 * pos(rng);
+    const double reach = std::hypot(a.radius, a.half_length) + std::hypot(rb, hb);
+    const Cylinder b{(0.5 + 1.5 * pos(rng)) * reach * unit(), ub, rb, hb};
+    const Separation cyl = cylinder_cylinder(a, b);
+    if (cyl.distance <= 0.0) continue;
+    const auto [n, l] = check_capsule_bound(a, b, cyl.distance, 1e-12, "random pose", it);
+    separated += n, lateral += l;
+  }
+  EXPECT_GT(separated, 2000);
+  EXPECT_GT(lateral, 200);
+  std::printf("[ capsule ] %d random separated poses, %d lateral-lateral\n", separated, lateral);
 }
 
 // ---- FCL overlap oracle ------------------------------------------------------------

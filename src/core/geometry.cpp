@@ -1,5 +1,6 @@
 // Narrow-phase geometry: sphere-cylinder (analytic), cylinder-cylinder
-// (feature-based solver with an FCL fallback), FCL overlap oracles.
+// (feature-based solver with an FCL fallback), segment-segment and the capsule
+// distance (a cheap lower bound of cylinder-cylinder), FCL overlap oracles.
 //
 // Cylinder-cylinder method. For two disjoint convex solids a closest pair
 // (p, q) exists with p on the boundary of A and q on the boundary of B. The
@@ -549,6 +550,53 @@ Separation cylinder_cylinder(const Cylinder& a, const Cylinder& b, double tolera
 }
 
 long cylinder_cylinder_fallbacks() { return g_fallbacks; }
+
+SegmentPair segment_segment(const Vec3& ca, const Vec3& ua, double ha, const Vec3& cb, const Vec3& ub, double hb) {
+  // Minimise F(s, t) = |r + s u_a - t u_b|^2, r = c_a - c_b, over the box
+  // |s| <= h_a, |t| <= h_b (Lumelsky, "On fast computation of distance between
+  // line segments", Inf. Process. Lett. 21, 1985; the clamping order as in
+  // Ericson, "Real-Time Collision Detection", 2005, sec. 5.1.9). With
+  // b = u_a.u_b, c = u_a.r, f = u_b.r the partial minimisers are
+  //   t(s) = b s + f,   s(t) = b t - c,
+  // and the free minimum has s0 = (b f - c) / (1 - b^2).
+  //  1. s = clamp(s0): it minimises H(s) = min over all real t of F, a convex
+  //     parabola, over |s| <= h_a. If t(s) is inside B, (s, t(s)) is optimal,
+  //     since F >= H everywhere.
+  //  2. Otherwise the optimum has t on the bound t(s) crossed (F is convex
+  //     along the segment from any feasible pair to (s, t(s)), whose value
+  //     H(s) is the smallest), and s = clamp(s(t)) is optimal for that t.
+  // Parallel axes (1 - b^2 = 0): H is constant and any s will do. Near
+  // parallel, s0 loses digits, but H is then flat (H'' = 2 (1 - b^2)), so the
+  // distance does not: its error stays at rounding level.
+  const Vec3 r = ca - cb;
+  const double b = ua.dot(ub), c = ua.dot(r), f = ub.dot(r);
+  const double denom = ua.cross(ub).squaredNorm();  // 1 - b^2, without cancellation
+  auto clamp = [](double x, double h) { return std::min(std::max(x, -h), h); };
+  double s = denom > 0.0 ? clamp((b * f - c) / denom, ha) : clamp(-c, ha);
+  double t = b * s + f;
+  if (std::abs(t) > hb) {
+    t = clamp(t, hb);
+    s = clamp(b * t - c, ha);
+  }
+  const Vec3 pa = ca + s * ua, pb = cb + t * ub;
+  return {(pb - pa).norm(), s, t, pa, pb};
+}
+
+Separation capsule_capsule(const Cylinder& a, const Cylinder& b) {
+  const SegmentPair p = segment_segment(a.center, a.axis, a.half_length, b.center, b.axis, b.half_length);
+  // The closest points of two convex sets define a separating direction:
+  // n.x <= n.p_a on segment A and n.y >= n.p_b on segment B. Adding the balls
+  // shifts each support by the radius, so the capsules' plane value along n
+  // is their distance, and the cylinders' (smaller supports) is at least that.
+  Vec3 n = p.point_b - p.point_a;
+  if (p.distance > 0.0) {
+    n /= p.distance;
+  } else {  // axes meet: deep overlap, any unit normal
+    n = a.axis.cross(b.axis);
+    n = n.squaredNorm() > 1e-24 ? Vec3(n.normalized()) : any_perpendicular(a.axis);
+  }
+  return {p.distance - a.radius - b.radius, p.point_a + a.radius * n, p.point_b - b.radius * n, n};
+}
 
 double cylinder_support(const Cylinder& c, const Vec3& n) {
   // h |u.n| + r sqrt(1 - (u.n)^2), with sqrt(1 - (u.n)^2) = |u x n| for unit

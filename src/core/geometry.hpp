@@ -60,6 +60,26 @@ Separation cylinder_cylinder_fcl(const Cylinder& a, const Cylinder& b, double to
 // result failed its duality-gap check and were answered by FCL instead.
 long cylinder_cylinder_fallbacks();
 
+// Closest points of two segments, each given as centre c, unit direction u
+// and half length h (the points c + s u, |s| <= h); parameters s_a, s_b.
+// Exact up to rounding for any pose, parallel and degenerate ones included.
+struct SegmentPair {
+  double distance;
+  double s_a, s_b;  // parameters of the closest points along each segment
+  Vec3 point_a, point_b;
+};
+SegmentPair segment_segment(const Vec3& ca, const Vec3& ua, double ha, const Vec3& cb, const Vec3& ub, double hb);
+
+// Distance between the capsules around two cylinders (the axis segment swept
+// by a ball of the cylinder's radius). A cylinder lies inside its capsule, so
+// this is a lower bound of cylinder_cylinder's distance, equal to it when the
+// closest points of the solids are on both lateral surfaces. About 20 ns.
+// normal: unit, from A towards B, the direction between the axis segments'
+// closest points (any unit vector if the axes meet); along it the separating
+// plane of the capsules, hence of the cylinders, is >= the returned distance.
+// point_a, point_b lie on the capsules' surfaces, not on the cylinders.
+Separation capsule_capsule(const Cylinder& a, const Cylinder& b);
+
 // Support value: max over points x of the solid of n.(x - center), |n| = 1.
 double cylinder_support(const Cylinder& c, const Vec3& n);
 

@@ -1,6 +1,7 @@
 #include "core/prediction.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 #include "core/motion.hpp"
@@ -107,7 +108,9 @@ double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
   return advance_pair(i, j, t, limit);
 }
 
-ContactGeometry Predictor::contact_geometry(int i, int j, double t) const {
+ContactGeometry Predictor::contact_geometry(int i, int j, double t) const { return bound_geometry(i, j, t, kNever); }
+
+ContactGeometry Predictor::bound_geometry(int i, int j, double t, double far) const {
   const Species &si = b_.sp(i), &sj = b_.sp(j);
   ContactGeometry g;
   g.center_a = body_center(b_, i, t);
@@ -126,9 +129,26 @@ ContactGeometry Predictor::contact_geometry(int i, int j, double t) const {
     geom::Separation s = geom::sphere_cylinder(g.center_b, sj.radius, geom::Cylinder{g.center_a, body_axis(b_, i, t), si.radius, si.half_length});
     g.sep = geom::Separation{s.distance, s.point_b, s.point_a, -s.normal};
   } else {
-    g.sep = geom::cylinder_cylinder(geom::Cylinder{g.center_a, body_axis(b_, i, t), si.radius, si.half_length},
-                                    geom::Cylinder{g.center_b, body_axis(b_, j, t), sj.radius, sj.half_length}, 1e-10,
-                                    &g.certified);
+    const geom::Cylinder ca{g.center_a, body_axis(b_, i, t), si.radius, si.half_length};
+    const geom::Cylinder cb{g.center_b, body_axis(b_, j, t), sj.radius, sj.half_length};
+    if (far < kNever) {
+      // Each cylinder lies inside its capsule, so the capsules' distance is a
+      // lower bound of the cylinders'; far from contact it is good enough to
+      // step from, at ~200 instructions against ~4 600 for the exact distance.
+      g.sep = geom::capsule_capsule(ca, cb);
+      // Along the capsules' normal the cylinders' separating plane (weak
+      // duality: any unit normal bounds the distance from below) is at least
+      // the capsules' distance, and much closer to the cylinders' when a rim
+      // or face is nearest (capsule caps reach up to a radius further).
+      const Vec3& n = g.sep.normal;
+      const double plane = n.dot(cb.center - ca.center) - geom::cylinder_support(ca, n) - geom::cylinder_support(cb, -n);
+      g.sep.distance = std::max(g.sep.distance, plane);
+      if (g.sep.distance > far) {
+        g.exact = false;
+        return g;
+      }
+    }
+    g.sep = geom::cylinder_cylinder(ca, cb, 1e-10, &g.certified);
   }
   return g;
 }
@@ -165,7 +185,10 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
       return kNever;
     }
     ++ca_iterations_;
-    const ContactGeometry g = contact_geometry(i, j, s);
+    // Far from contact: the capsules' lower bound, as in advance_generic
+    // (every step below is certified by a lower bound along some unit normal;
+    // the feature normals of the capsules' points are just fewer candidates).
+    const ContactGeometry g = bound_geometry(i, j, s, capsule_far());
     const double d = g.sep.distance;
     if (d <= delta_ && approach_rate(i, j, s, g) < 0.0) return s;
     if (d <= 0.0) {
@@ -343,6 +366,7 @@ ContactFrame Predictor::on_axis_planes(int i, int j, double t, const ContactGeom
 }
 
 ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeometry& g) const {
+  assert(g.exact && "contact_frame: a capsule lower bound is no contact geometry");
   // The true normal maximises the separation along it (weak duality), so the
   // candidate with the largest plane value is the most accurate one.
   const RankedNormals r = rank_normals(i, j, t, g);

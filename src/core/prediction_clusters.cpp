@@ -50,7 +50,14 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
     }
     ++ca_iterations_;
     ++counts_.cluster_pair;
-    const ContactGeometry g = contact_geometry(i, j, s);
+    // Far from contact two linkers step from their capsules' distance, a
+    // certified lower bound (bound_geometry): the Lipschitz step below and
+    // the swept plane along the capsules' normal stay valid for any lower
+    // bound and any unit normal. Beyond capsule_far() >= 1e3 delta no contact
+    // can fire and the feature normals are not needed; nearer, the exact
+    // distance decides as before.
+    const ContactGeometry g = bound_geometry(i, j, s, capsule_far());
+    if (!g.exact) ++counts_.cluster_pair_capsule;
     const double d = g.sep.distance;
     if (d <= delta_ && approach_rate(i, j, s, g) < 0.0) return s;
     if (d <= 0.0) {

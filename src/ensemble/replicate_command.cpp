@@ -103,7 +103,7 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   {
     const Predictor::SearchCounts& sc = sim.predictor_counts();
     j["ca_by_kind"] = {{"capture", sc.capture}, {"cluster_pair", sc.cluster_pair}, {"cluster_wall", sc.cluster_wall},
-                       {"cell", sc.cell}};
+                       {"cell", sc.cell}, {"cluster_pair_capsule", sc.cluster_pair_capsule}};
   }
   if (params.compliant.enabled() && params.bonding.enabled) {
     j["compliant"] = {{"slices", s.slices},           {"slice_cuts", s.slice_cuts},
