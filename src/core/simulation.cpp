@@ -501,7 +501,9 @@ void Simulation::process_cell(int i, const Event& ev, double t) {
     const int c = grid_.locate(x);
     if (c != grid_.cell_of_body(i)) grid_.move(i, c);
   } else {
-    advance(bodies_.kin[i], t);
+    // The trajectory does not change: its record stays at its reference time
+    // (no re-basing, which would turn a linker's axis for nothing); only the
+    // periodic wrap shifts its reference position by a box length.
     bool wrapped = false;
     const int next = grid_.step(grid_.cell_of_body(i), ev.dim, ev.dir, &wrapped);
     if (next >= 0) {
