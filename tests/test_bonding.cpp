@@ -199,6 +199,31 @@ TEST(RestingContact, ClustersTouchingAtRestAreSearchedWithFewSteps) {
               static_cast<unsigned long long>(pred.search_counts().cluster_pair));
 }
 
+// body_axis memoizes a free body's axis on the exact inputs of its rotation:
+// every answer equals the direct evaluation bit for bit, also when the record
+// changes (an impulse, a re-basing) and the same time is asked again.
+TEST(Pose, AxisMemoEqualsDirectEvaluation) {
+  SimParams p = bonding_params();
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  BodyStore b = make_bodies(p, {{Shape::Linker, Vec3(5, 5, 5), kZero, Vec3(u(rng), u(rng), 1.0), Vec3(0.3, -0.2, 0.9)},
+                                {Shape::Linker, Vec3(9, 5, 5), kZero, Vec3(1.0, u(rng), 0.0), Vec3(-0.7, 0.1, 0.2)}});
+  b.free_all();
+  ASSERT_EQ(b.axis_memo.size(), 2u);
+  for (int k = 0; k < 2000; ++k) {
+    const int i = k % 2;
+    Kinematics& kin = b.kin[i];
+    const double dt = 10.0 * std::abs(u(rng));
+    ASSERT_EQ(body_axis(b, i, kin.t + dt), axis_at(kin, kin.t + dt)) << "query " << k;
+    ASSERT_EQ(body_axis(b, i, kin.t + dt), axis_at(kin, kin.t + dt)) << "repeated query " << k;  // a hit
+    // The same elapsed time on a changed record: a new angular velocity (an
+    // impulse), or the record re-based to a later time.
+    if (k % 2 == 0) set_angular_velocity(kin, b.sp(i), Vec3(u(rng), u(rng), u(rng)));
+    else advance(kin, kin.t + 0.5);
+    ASSERT_EQ(body_axis(b, i, kin.t + dt), axis_at(kin, kin.t + dt)) << "changed record " << k;
+  }
+}
+
 // Predictor::proven_until (kept by the pair memo): after a search that found
 // no contact before its limit, the gap stays above half the contact band
 // (the level every certified step keeps) all the way to the proven time, not

@@ -151,6 +151,15 @@ struct BodyStore {
   // merged into the cluster's tumbling nor lost; given back when the cluster
   // wakes. Zero otherwise (may be empty when no compliant cluster exists).
   std::vector<Vec3> held_spin;
+  // A free body's axis at its last queried time, memoized on the exact
+  // inputs of the rotation (record axis, precession, elapsed time): the
+  // steps of one search ask for the same body at the same time several times
+  // (distance, supports, planes). A pure memo, so results are bit-identical.
+  struct AxisMemo {
+    Vec3 axis, precession, result;
+    double dt = std::numeric_limits<double>::quiet_NaN();
+  };
+  mutable std::vector<AxisMemo> axis_memo;  // may be empty (then no memo)
 
   int size() const { return static_cast<int>(kin.size()); }
   const Species& sp(int i) const { return species[static_cast<int>(shape[i])]; }
@@ -165,6 +174,7 @@ struct BodyStore {
     cgroup.assign(n, -1);
     track.assign(n, Track{});
     held_spin.assign(n, Vec3::Zero());
+    axis_memo.assign(n, AxisMemo{});
   }
 };
 

@@ -43,7 +43,19 @@ inline Vec3 body_center(const BodyStore& b, int i, double t) {
 inline Vec3 body_axis(const BodyStore& b, int i, double t) {
   if (b.cgroup[i] >= 0) return b.shape[i] == Shape::Sphere ? Vec3(Vec3::UnitZ()) : track_axis(b.track[i], t);
   const int g = b.group[i];
-  if (g < 0) return axis_at(b.kin[i], t);
+  if (g < 0) {
+    const Kinematics& k = b.kin[i];
+    if (static_cast<std::size_t>(i) >= b.axis_memo.size()) return axis_at(k, t);
+    BodyStore::AxisMemo& m = b.axis_memo[static_cast<std::size_t>(i)];
+    const double dt = t - k.t;
+    if (dt != m.dt || k.axis != m.axis || k.precession != m.precession) {
+      m.result = rotate_about(k.axis, k.precession, dt);
+      m.dt = dt;
+      m.axis = k.axis;
+      m.precession = k.precession;
+    }
+    return m.result;
+  }
   return b.clusters[g].orientation_at(t) * b.body_axis[i];
 }
 
