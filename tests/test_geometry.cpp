@@ -28,6 +28,15 @@ constexpr double kPi = 3.14159265358979323846;
 
 Cylinder unit_z_cylinder() { return {Vec3::Zero(), Vec3::UnitZ(), 1.0, 2.0}; }
 
+// A uniformly random direction (rejection from the unit ball, away from 0).
+Vec3 random_unit(std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Vec3 v;
+  do v = Vec3(u(rng), u(rng), u(rng));
+  while (v.norm() > 1.0 || v.norm() < 0.1);
+  return v.normalized();
+}
+
 // ---- point / sphere vs cylinder ------------------------------------------------
 
 TEST(PointCylinder, InsideIsZeroAndSelf) {
@@ -249,12 +258,7 @@ TEST(CylinderCylinder, OverlapIsNonPositiveAndFinite) {
 TEST(CylinderCylinder, RandomPosesAgreeWithFcl) {
   std::mt19937_64 rng(12345);
   std::uniform_real_distribution<double> u(-1.0, 1.0), pos(0.0, 1.0);
-  auto unit = [&] {
-    Vec3 v;
-    do v = Vec3(u(rng), u(rng), u(rng));
-    while (v.norm() > 1.0 || v.norm() < 0.1);
-    return Vec3(v.normalized());
-  };
+  auto unit = [&] { return random_unit(rng); };
   int separated = 0, overlapping = 0;
   for (int it = 0; it < 3000; ++it) {
     const Cylinder a{Vec3::Zero(), unit(), 0.2 + 1.5 * pos(rng), 0.05 + 3.0 * pos(rng)};
@@ -354,12 +358,7 @@ TEST(SegmentSegment, HandCases) {
 TEST(SegmentSegment, MatchesBruteForce) {
   std::mt19937_64 rng(2024);
   std::uniform_real_distribution<double> u(-1.0, 1.0), pos(0.0, 1.0);
-  auto unit = [&] {
-    Vec3 v;
-    do v = Vec3(u(rng), u(rng), u(rng));
-    while (v.norm() > 1.0 || v.norm() < 0.1);
-    return Vec3(v.normalized());
-  };
+  auto unit = [&] { return random_unit(rng); };
   double worst = 0.0;
   for (int it = 0; it < 3000; ++it) {
     const Vec3 ua = unit();
@@ -426,12 +425,7 @@ TEST(CapsuleCapsule, LowerBoundOnReference) {
 TEST(CapsuleCapsule, LowerBoundOnRandomPoses) {
   std::mt19937_64 rng(777);
   std::uniform_real_distribution<double> u(-1.0, 1.0), pos(0.0, 1.0);
-  auto unit = [&] {
-    Vec3 v;
-    do v = Vec3(u(rng), u(rng), u(rng));
-    while (v.norm() > 1.0 || v.norm() < 0.1);
-    return Vec3(v.normalized());
-  };
+  auto unit = [&] { return random_unit(rng); };
   int separated = 0, lateral = 0;
   for (int it = 0; it < 3000; ++it) {
     // Linkers (radius 1, half length 2) half the time, random sizes otherwise.
