@@ -161,8 +161,6 @@ class Predictor {
     std::uint64_t cluster_pair_capsule = 0;  // cluster_pair steps taken from the capsule bound
   };
   const SearchCounts& search_counts() const { return counts_; }
-  // Two free spheres: closed form (xi: i's centre at t); kNever if not before limit.
-  double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
   long plane_evaluations() const { return plane_evaluations_; }
   bool failed() const { return failed_; }
   // After pair() found no contact before its limit: no contact before this
@@ -187,6 +185,8 @@ class Predictor {
   // normals, so no contact can fire from the bound.
   double capsule_far() const { return std::max(kCapsuleFar, 1e3 * delta_); }
   static constexpr double kCapsuleFar = 0.02;
+  // Two free spheres: closed form (xi: i's centre at t); kNever if not before limit.
+  double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
   double advance_pair(int i, int j, double t, double limit);
   bool wall_window(double x, double v, int dir, double reach, double t, double* start, double* end) const;
   // Pairs and walls with a cluster member: plain conservative advancement with

@@ -88,10 +88,10 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   // Compliant clusters formed at t = 0 start their first slice.
   for (int g = 0; g < static_cast<int>(cgroups_.size()); ++g)
     if (cgroups_[g].alive && cgroups_[g].pending && termination_ == Termination::Running) begin_slice(g, 0.0);
-  sphere_k_ = params_.run.sphere_candidates;
-  sphere_gas_ = sphere_k_ > 0 && !params_.bonding.enabled && n_spheres_ == n;
+  const int k_max = params_.run.sphere_candidates;
+  sphere_gas_ = k_max > 0 && !params_.bonding.enabled && n_spheres_ == n;
   if (sphere_gas_) {
-    sphere_list_.assign(static_cast<std::size_t>(n) * sphere_k_, SphereCandidate{kNever, -1, 0});
+    sphere_list_.assign(static_cast<std::size_t>(n) * k_max, SphereCandidate{kNever, -1, 0});
     sphere_count_.assign(n, 0);
     sphere_floor_.assign(n, kNever);
     sphere_own_.assign(n, Event{});
@@ -127,7 +127,7 @@ void Simulation::take_earlier_wall(int i, double t, Event* e) {
 }
 
 void Simulation::predict_sphere(int i, double t, SphereScan scan, int dim, int dir) {
-  const int k_max = sphere_k_;
+  const int k_max = params_.run.sphere_candidates;
   SphereCandidate* list = &sphere_list_[static_cast<std::size_t>(i) * k_max];
   int& n = sphere_count_[i];
   double& floor = sphere_floor_[i];
@@ -493,6 +493,7 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
 }
 
 void Simulation::process_cell(int i, const Event& ev, double t) {
+  SphereScan scan = SphereScan::Full;
   if (ev.dim < 0) {
     // A cluster member: re-file it under the cell that holds its centre.
     Vec3 x = body_center(bodies_, i, t);
@@ -510,15 +511,12 @@ void Simulation::process_cell(int i, const Event& ev, double t) {
       if (wrapped) bodies_.kin[i].x[ev.dim] -= ev.dir * box_.length;
       grid_.move(i, next);
     }
-    if (sphere_gas_) {
-      ++stats_.cell_crossings;
-      if (next >= 0 && grid_.faces_distinct()) predict_sphere(i, t, SphereScan::Crossing, ev.dim, ev.dir);
-      else predict_sphere(i, t, SphereScan::Full);
-      return;
-    }
+    // A sphere of the gas scans only the 9 cells it has come next to.
+    if (sphere_gas_ && next >= 0 && grid_.faces_distinct()) scan = SphereScan::Crossing;
   }
   ++stats_.cell_crossings;
-  predict(i, t);
+  if (sphere_gas_) predict_sphere(i, t, scan, ev.dim, ev.dir);
+  else predict(i, t);
 }
 
 bool Simulation::step() {

@@ -253,8 +253,7 @@ class Simulation {
   std::vector<std::vector<PairMemo>> memo_;
   std::vector<PairMemo> memo_scratch_;
   bool sphere_gas_ = false;                    // predict_sphere applies
-  int sphere_k_ = 0;                           // run.sphere_candidates
-  std::vector<SphereCandidate> sphere_list_;   // K per body, earliest first
+  std::vector<SphereCandidate> sphere_list_;   // run.sphere_candidates per body, earliest first
   std::vector<int> sphere_count_;              // entries in use per body
   std::vector<double> sphere_floor_;
   std::vector<Event> sphere_own_;              // the body's crossing or wall hit
