@@ -50,6 +50,23 @@ std::vector<Simulation::LoggedEvent> event_log(SimParams p, std::uint64_t seed) 
   return sim.log();
 }
 
+// One replicate in validation mode: how it ended, the validator's report and
+// the run's counters.
+struct ValidatedRun {
+  Termination end;
+  ValidationReport report;
+  bool energy_conserving;
+  RunStats stats;
+};
+
+ValidatedRun validated_run(const SimParams& p, std::uint64_t seed) {
+  Simulation sim(p, build_scene(p, seed, 0, nullptr));
+  Validator v(sim);
+  sim.set_validator(&v);
+  const Termination end = sim.run();
+  return {end, v.report(), v.energy_conserving(), sim.stats()};
+}
+
 TEST(EventQueue, FastAndReferenceQueuesGiveIdenticalEventSequence) {
   SimParams p;  // default scene, 300 + 300 bodies
   p.bonding.enabled = false;  // hard-body dynamics
@@ -120,16 +137,14 @@ TEST(SphereCandidates, ValidationRunNoOverlapEnergyConserved) {
   // to a full scan (past `floor`) is exercised as much as the partial scans.
   SimParams p = sphere_gas(500, 0.3, Boundary::Periodic, 1);
   p.run.max_events = 20000;
-  Simulation sim(p, build_scene(p, 3, 0, nullptr));
-  Validator v(sim);
-  sim.set_validator(&v);
-  EXPECT_EQ(sim.run(), Termination::EventBudget);
-  const ValidationReport& r = v.report();
+  const ValidatedRun run = validated_run(p, 3);
+  EXPECT_EQ(run.end, Termination::EventBudget);
+  const ValidationReport& r = run.report;
   EXPECT_EQ(r.overlaps, 0) << "first overlap at t = " << r.first_overlap_time;
   EXPECT_LT(r.max_energy_error, 1e-9);
   EXPECT_LT(r.max_momentum_error, 1e-12);
-  EXPECT_GT(sim.stats().stale, 500);
-  EXPECT_GT(sim.stats().cell_crossings, 4000);
+  EXPECT_GT(run.stats.stale, 500);
+  EXPECT_GT(run.stats.cell_crossings, 4000);
 }
 
 TEST(Validation, DefaultBoxHundredThousandEventsNoOverlapElastic) {
@@ -137,18 +152,16 @@ TEST(Validation, DefaultBoxHundredThousandEventsNoOverlapElastic) {
   p.bonding.enabled = false;  // hard-body dynamics
   p.run.t_max = 1e9;
   p.run.max_events = 100000;
-  Simulation sim(p, build_scene(p, 5, 0, nullptr));
-  Validator v(sim);
-  sim.set_validator(&v);
-  EXPECT_EQ(sim.run(), Termination::EventBudget);
-  const ValidationReport& r = v.report();
+  const ValidatedRun run = validated_run(p, 5);
+  EXPECT_EQ(run.end, Termination::EventBudget);
+  const ValidationReport& r = run.report;
   EXPECT_EQ(r.checks, 100000);
   EXPECT_EQ(r.overlaps, 0) << "first overlap at t = " << r.first_overlap_time;
-  EXPECT_TRUE(v.energy_conserving());
+  EXPECT_TRUE(run.energy_conserving);
   EXPECT_LT(r.max_energy_error, 1e-9);
   EXPECT_LT(r.max_momentum_error, 1e-12);
   EXPECT_LT(r.max_angular_momentum_error, 1e-12);
-  EXPECT_GT(sim.stats().collisions, 10000);
+  EXPECT_GT(run.stats.collisions, 10000);
 }
 
 TEST(Validation, PeriodicFrictionalInelasticRunKeepsMomentumAndNoOverlap) {
@@ -164,15 +177,12 @@ TEST(Validation, PeriodicFrictionalInelasticRunKeepsMomentumAndNoOverlap) {
   p.geometry.box_length = 35.0;
   p.run.t_max = 1e9;
   p.run.max_events = 20000;
-  Simulation sim(p, build_scene(p, 9, 0, nullptr));
-  Validator v(sim);
-  sim.set_validator(&v);
-  sim.run();
-  EXPECT_EQ(v.report().overlaps, 0);
-  EXPECT_LT(v.report().max_momentum_error, 1e-12);
-  EXPECT_FALSE(v.energy_conserving());
-  EXPECT_LT(v.report().max_energy_error, 1e-12);  // energy never increases
-  EXPECT_GT(sim.stats().stick + sim.stats().slide, 100);
+  const ValidatedRun run = validated_run(p, 9);
+  EXPECT_EQ(run.report.overlaps, 0);
+  EXPECT_LT(run.report.max_momentum_error, 1e-12);
+  EXPECT_FALSE(run.energy_conserving);
+  EXPECT_LT(run.report.max_energy_error, 1e-12);  // energy never increases
+  EXPECT_GT(run.stats.stick + run.stats.slide, 100);
 }
 
 TEST(Regression, GrazingWallContactOfALinkerDoesNotStall) {
