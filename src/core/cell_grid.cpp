@@ -20,12 +20,11 @@ CellGrid::CellGrid(double box_length, double min_cell, int bodies, bool periodic
   cell_.assign(bodies, -1);
   // With fewer than 3 cells along a side of a periodic box, offsets -1 and +1
   // reach the same cell: keep each distinct cell once.
-  std::vector<int> offs = n_ >= 3 ? std::vector<int>{-1, 0, 1} : (n_ == 2 ? std::vector<int>{0, 1} : std::vector<int>{0});
-  if (!periodic_) offs = {-1, 0, 1};  // out-of-range cells are skipped instead
-  nb_count_ = 0;
-  for (int a : offs)
-    for (int b : offs)
-      for (int c : offs) offsets_[nb_count_++] = {a, b, c};
+  if (periodic_ && n_ < 3) {
+    n_axis_ = n_;  // {0, 1} or {0}
+    axis_offsets_[0] = 0;
+    axis_offsets_[1] = 1;
+  }
 }
 
 int CellGrid::locate(const Vec3& x) const {

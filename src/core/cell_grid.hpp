@@ -43,19 +43,27 @@ class CellGrid {
   int step(int cell, int dim, int dir, bool* wrapped) const;
 
   // Calls f(j) for every body j in the cells adjacent to (and including) c.
+  // The wrapped (or clipped) coordinates are found once per axis, not once
+  // per cell; the x offset varies slowest, the z offset fastest.
   template <class F>
   void for_each_near(int c, F&& f) const {
     const auto cc = coords(c);
-    for (int k = 0; k < nb_count_; ++k) {
-      const auto& o = offsets_[k];
-      int ix = cc[0] + o[0], iy = cc[1] + o[1], iz = cc[2] + o[2];
-      if (periodic_) {
-        ix = wrap(ix); iy = wrap(iy); iz = wrap(iz);
-      } else if (ix < 0 || iy < 0 || iz < 0 || ix >= n_ || iy >= n_ || iz >= n_) {
-        continue;
+    int row[3][3];  // per axis: the cell coordinates to visit, pre-multiplied
+    int count[3];
+    const int stride[3] = {1, n_, n_ * n_};
+    for (int d = 0; d < 3; ++d) {
+      count[d] = 0;
+      for (int k = 0; k < n_axis_; ++k) {
+        int q = cc[d] + axis_offsets_[k];
+        if (periodic_) q = wrap(q);
+        else if (q < 0 || q >= n_) continue;
+        row[d][count[d]++] = q * stride[d];
       }
-      for (int j = head_[index(ix, iy, iz)]; j >= 0; j = next_[j]) f(j);
     }
+    for (int a = 0; a < count[0]; ++a)
+      for (int b = 0; b < count[1]; ++b)
+        for (int e = 0; e < count[2]; ++e)
+          for (int j = head_[row[0][a] + row[1][b] + row[2][e]]; j >= 0; j = next_[j]) f(j);
   }
 
   // True when the 27 cells around any cell are distinct (a periodic box needs
@@ -94,8 +102,8 @@ class CellGrid {
   double box_ = 0.0;
   bool periodic_ = false;
   std::vector<int> head_, next_, prev_, cell_;
-  std::array<std::array<int, 3>, 27> offsets_{};
-  int nb_count_ = 0;
+  int axis_offsets_[3] = {-1, 0, 1};  // the distinct offsets along each axis
+  int n_axis_ = 3;
 };
 
 }  // namespace ringsim
