@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <tuple>
 
 #include "body_builder.hpp"
 #include "core/contact.hpp"
@@ -86,11 +87,22 @@ constexpr double kLinkerIperp = 19.0 * M_PI / 3.0;  // m (3 r^2 + l^2) / 12
 // the contact arms by that much.
 constexpr double kTol = 1e-8;
 
-class SphereSphere : public ::testing::TestWithParam<double> {};
+// Parameters: restitution, and run.sphere_candidates: 4 (the default) takes
+// the sphere gas's own collision path (Simulation::collide_smooth_spheres),
+// 0 the general solver of every other pair.
+class SphereSphere : public ::testing::TestWithParam<std::tuple<double, int>> {
+ protected:
+  double e() const { return std::get<0>(GetParam()); }
+  SimParams params() const {
+    SimParams p = two_body_params(e());
+    p.run.sphere_candidates = std::get<1>(GetParam());
+    return p;
+  }
+};
 
 TEST_P(SphereSphere, HeadOnExchangesNormalMomentum) {
-  const double e = GetParam();
-  const SimParams p = two_body_params(e);
+  const double e = this->e();
+  const SimParams p = params();
   const Outcome o = collide_once(p, {{Shape::Sphere, {15, 20, 20}, {1, 0, 0}, {0, 0, 1}, {0, 0, 0}},
                                      {Shape::Sphere, {25, 20, 20}, {-0.5, 0, 0}, {0, 0, 1}, {0, 0, 0}}});
   // Equal masses: v1' = ((1-e) v1 + (1+e) v2) / 2, v2' = ((1+e) v1 + (1-e) v2) / 2.
@@ -101,8 +113,8 @@ TEST_P(SphereSphere, HeadOnExchangesNormalMomentum) {
 }
 
 TEST_P(SphereSphere, ObliqueKeepsTangentialVelocity) {
-  const double e = GetParam();
-  const SimParams p = two_body_params(e);
+  const double e = this->e();
+  const SimParams p = params();
   // Offset 1 in y: contact normal (sqrt(3), 1, 0)/2 at touching distance 2.
   const Outcome o = collide_once(p, {{Shape::Sphere, {10, 20, 20}, {1, 0, 0}, {0, 0, 1}, {0, 0, 0}},
                                      {Shape::Sphere, {20, 21, 20}, {0, 0, 0}, {0, 0, 1}, {0, 0, 0}}});
@@ -114,7 +126,8 @@ TEST_P(SphereSphere, ObliqueKeepsTangentialVelocity) {
   expect_conserved(o, e == 1.0);
 }
 
-INSTANTIATE_TEST_SUITE_P(Restitution, SphereSphere, ::testing::Values(1.0, 0.5, 0.0));
+INSTANTIATE_TEST_SUITE_P(Restitution, SphereSphere,
+                         ::testing::Combine(::testing::Values(1.0, 0.5, 0.0), ::testing::Values(4, 0)));
 
 TEST(SphereSphereFriction, StickingZeroesTangentialSlip) {
   // Identical spheres, mu large enough to stick: tangential impulse m u_t / 7

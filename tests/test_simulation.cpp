@@ -132,6 +132,38 @@ TEST(SphereCandidates, SameEventsAsFullNeighbourhoodScans) {
   }
 }
 
+TEST(SphereCandidates, InelasticGasSameEventsAndLossesAsGeneralSolver) {
+  // The gas's own collision path (collide_smooth_spheres, with candidates)
+  // against the general contact solver (run.sphere_candidates = 0), with
+  // restitution < 1, the TC rule (a window long enough to fire often) and the
+  // separation floor: the same events, and the same energy lost, to rounding.
+  SimParams p = sphere_gas(300, 0.25, Boundary::Periodic, 0);
+  p.contact.restitution_sphere = 0.6;
+  p.run.tc_time = 0.02;
+  p.run.min_separation_speed = 0.5;
+  p.run.max_events = 3000;
+  auto run = [&](int k) {
+    p.run.sphere_candidates = k;
+    Simulation sim(p, build_scene(p, 13, 0, nullptr));
+    sim.enable_log(true);
+    sim.run();
+    return std::make_pair(sim.log(), sim.stats());
+  };
+  const auto [general_log, general] = run(0);
+  const auto [gas_log, gas] = run(4);
+  ASSERT_EQ(gas_log.size(), general_log.size());
+  for (std::size_t e = 0; e < general_log.size(); ++e) {
+    ASSERT_EQ(gas_log[e].type, general_log[e].type) << "event " << e;
+    ASSERT_NEAR(gas_log[e].time, general_log[e].time, 1e-9 * std::max(1.0, general_log[e].time)) << "event " << e;
+  }
+  EXPECT_GT(general.tc_collisions, 10);  // the TC rule fired
+  EXPECT_GT(general.floored, 10);        // and so did the floor
+  EXPECT_EQ(gas.tc_collisions, general.tc_collisions);
+  EXPECT_EQ(gas.floored, general.floored);
+  EXPECT_GT(general.lost_contacts, 0.0);
+  EXPECT_NEAR(gas.lost_contacts, general.lost_contacts, 1e-9 * general.lost_contacts);
+}
+
 TEST(SphereCandidates, ValidationRunNoOverlapEnergyConserved) {
   // One candidate per sphere: the list runs empty often, so the fall-back
   // to a full scan (past `floor`) is exercised as much as the partial scans.

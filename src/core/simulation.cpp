@@ -90,6 +90,7 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
     if (cgroups_[g].alive && cgroups_[g].pending && termination_ == Termination::Running) begin_slice(g, 0.0);
   const int k_max = params_.run.sphere_candidates;
   sphere_gas_ = k_max > 0 && !params_.bonding.enabled && n_spheres_ == n;
+  smooth_gas_ = sphere_gas_ && n > 0 && bodies_.sp(0).static_friction == 0.0 && bodies_.sp(0).dynamic_friction == 0.0;
   if (sphere_gas_) {
     sphere_list_.assign(static_cast<std::size_t>(n) * k_max, SphereCandidate{kNever, -1, 0});
     sphere_count_.assign(n, 0);
@@ -417,7 +418,48 @@ void Simulation::touch(int b, double t, bool impulse) {
   }
 }
 
+void Simulation::collide_smooth_spheres(int i, int j, double t) {
+  // Two free spheres without friction: the impulse acts along the line of
+  // centres, where it exerts no torque, so the general solver (collision
+  // matrix, Coulomb cone) reduces to Newton's law along n:
+  //   J = -(1 + e) u_n / (1/m_i + 1/m_j) n   on j (and -J on i),
+  // with the same TC rule, separation floor and energy bookkeeping as
+  // process_collision (which gives these values up to rounding).
+  touch(i, t);
+  touch(j, t);
+  Kinematics &ki = bodies_.kin[i], &kj = bodies_.kin[j];
+  const Vec3 n = box_.min_image(kj.x - ki.x).normalized();
+  const double un = n.dot(kj.v - ki.v);
+  if (un < 0.0) {
+    const Species& s = bodies_.sp(i);  // one species in the gas
+    double e = combine(params_.contact.restitution_rule, s.restitution, s.restitution);
+    if (t - bodies_.last_collision[i] < params_.run.tc_time || t - bodies_.last_collision[j] < params_.run.tc_time) {
+      if (e < 1.0) ++stats_.tc_collisions;
+      e = 1.0;
+    }
+    const double inv_mass = 2.0 / s.mass;  // 1/m_i + 1/m_j
+    double jn = -(1.0 + e) * un / inv_mass;
+    const double floor = params_.run.min_separation_speed;
+    if (floor > 0.0 && e >= 1.0 && un + inv_mass * jn < floor) {
+      jn += (floor - (un + inv_mass * jn)) / inv_mass;
+      ++stats_.floored;
+    }
+    stats_.lost_contacts += -jn * (un + 0.5 * inv_mass * jn);
+    ki.v -= (jn / s.mass) * n;
+    kj.v += (jn / s.mass) * n;
+  }
+  bump(i, t);
+  bump(j, t);
+  ++stats_.collisions;
+  predict_sphere(i, t, SphereScan::Full);
+  predict_sphere(j, t, SphereScan::Full);
+}
+
 void Simulation::process_collision(int i, int j, double t) {
+  if (smooth_gas_) {
+    collide_smooth_spheres(i, j, t);
+    return;
+  }
   touch(i, t);
   touch(j, t);
   const ContactGeometry g = predictor_.contact_geometry(i, j, t);

@@ -202,6 +202,8 @@ class Simulation {
   bool bond_possible() const;
   double capture_range() const;
   void process_collision(int i, int j, double t);
+  // process_collision for the frictionless sphere gas (smooth_gas_).
+  void collide_smooth_spheres(int i, int j, double t);
   void process_wall(int i, const Event& ev, double t);
   void process_cell(int i, const Event& ev, double t);
   void apply_impulse(int i, const Vec3& J, const Vec3& arm);
@@ -253,6 +255,7 @@ class Simulation {
   std::vector<std::vector<PairMemo>> memo_;
   std::vector<PairMemo> memo_scratch_;
   bool sphere_gas_ = false;                    // predict_sphere applies
+  bool smooth_gas_ = false;                    // ... and no friction: collide_smooth_spheres
   std::vector<SphereCandidate> sphere_list_;   // run.sphere_candidates per body, earliest first
   std::vector<int> sphere_count_;              // entries in use per body
   std::vector<double> sphere_floor_;
