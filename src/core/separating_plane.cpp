@@ -142,7 +142,10 @@ double SupportTrack::max_rate_over(double t1, double t2) const {
 
 double advance_plane(const SeparatingPlane& plane, double t, double end, double target, double stop,
                      double rate_bound, long* evaluations, int budget) {
-  double step = 0.0;
+  // Cold start: offer a sixteenth of the window first (rejected trials halve),
+  // not the safe step, which right after a contact is ~1e-10 and would take
+  // ~30 doublings to reach the scale of the motion.
+  double step = std::isfinite(end) ? (end - t) / 16.0 : 0.0;
   const long first = *evaluations;
   while (t < end) {
     if (*evaluations - first >= budget) return t;  // the normal has gone stale: let the caller refresh it

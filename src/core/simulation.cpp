@@ -81,6 +81,7 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   compliant_ = params_.bonding.enabled && params_.compliant.enabled();
   cindex_.assign(n, -1);
   memo_.assign(n, {});
+  wall_memo_.assign(n, WallMemo{});
   for (int i = 0; i < n; ++i) grid_.insert(i, bodies_.kin[i].x);
   initial_energy_ = mechanical_totals(bodies_, 0.0).energy;  // every body free
   monitor_.set(0.0, graph_.N_t());
@@ -118,7 +119,28 @@ Event Simulation::free_body_exit(int i, double t, const Vec3& xi) {
 
 void Simulation::take_earlier_wall(int i, double t, Event* e) {
   if (box_.periodic) return;
-  const WallHit w = predictor_.wall(i, t, e->time);
+  const double limit = e->time;
+  WallMemo& m = wall_memo_[i];
+  WallHit w;
+  // Compliant members move by slices (the search stops at the slice's end):
+  // no memo for them.
+  if (bodies_.cgroup[i] < 0 && m.valid && m.counter == bodies_.counter[i] && m.from <= t && m.hit.time >= t) {
+    if (m.hit.time < kNever) {
+      // The first contact after m.from, hence also the first after t.
+      if (m.hit.time < limit) w = m.hit;
+    } else if (m.until < limit) {
+      w = predictor_.wall(i, m.until, limit);
+      if (w.time < kNever) m.hit = w;
+      else m.until = limit;
+    }
+  } else {
+    w = predictor_.wall(i, t, limit);
+    m.counter = bodies_.counter[i];
+    m.valid = bodies_.cgroup[i] < 0;
+    m.from = t;
+    m.until = w.time < kNever ? w.time : limit;
+    m.hit = w;
+  }
   if (w.time < e->time) {
     e->time = w.time;
     e->type = EventType::Wall;

@@ -252,6 +252,17 @@ class Simulation {
     bool hit;
   };
   double memo_pair(int i, int j, double t, double limit, const Vec3& xi);
+  // Wall-search memo of a body (the same proof, for its walls): a search from
+  // `from` either proved no wall contact before `until` or found the first at
+  // hit.time. Valid while the body's counter is unchanged; a cell crossing or
+  // a member's relocation then resumes from `until` instead of starting over.
+  struct WallMemo {
+    std::uint32_t counter = 0;
+    bool valid = false;
+    double from = 0.0, until = 0.0;
+    WallHit hit;
+  };
+  std::vector<WallMemo> wall_memo_;
   std::vector<std::vector<PairMemo>> memo_;
   std::vector<PairMemo> memo_scratch_;
   bool sphere_gas_ = false;                    // predict_sphere applies
