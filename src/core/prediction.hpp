@@ -63,14 +63,17 @@ struct Box {
 // smaller root of |dx + dv s| = sigma, in the cancellation-free form
 // c / (-b + sqrt(b^2 - a c)); 0 if touching and approaching, infinity if they
 // do not approach or miss.
-inline double sphere_touch_time(const Vec3& dx, const Vec3& dv, double sigma) {
-  const double b = dx.dot(dv);
+// From b = dx.dv, c = |dx|^2 - sigma^2 and vv = |dv|^2 (the gas's scalar
+// pair loop computes these itself).
+inline double sphere_touch_time(double b, double c, double vv) {
   if (b >= 0.0) return kNever;  // not approaching
-  const double c = dx.squaredNorm() - sigma * sigma;
-  if (c <= 0.0) return 0.0;  // touching (rounding) and approaching
-  const double disc = b * b - dv.squaredNorm() * c;
+  if (c <= 0.0) return 0.0;     // touching (rounding) and approaching
+  const double disc = b * b - vv * c;
   if (disc < 0.0) return kNever;
   return c / (-b + std::sqrt(disc));
+}
+inline double sphere_touch_time(const Vec3& dx, const Vec3& dv, double sigma) {
+  return sphere_touch_time(dx.dot(dv), dx.squaredNorm() - sigma * sigma, dv.squaredNorm());
 }
 
 // Geometry of a contact between bodies a and b at time t, in a's image frame.

@@ -167,10 +167,25 @@ void Simulation::predict_sphere(int i, double t, SphereScan scan, int dim, int d
   const Kinematics& ki = bodies_.kin[i];
   const Vec3 xi = position_at(ki, t);
   const double sigma = 2.0 * bodies_.sp(i).radius;  // one species: every body is a sphere
+  // The pair loop in scalars, the box's minimum image hoisted out of it
+  // (Box::min_image's arithmetic).
+  const double x0 = xi[0], x1 = xi[1], x2 = xi[2], v0 = ki.v[0], v1 = ki.v[1], v2 = ki.v[2];
+  const bool periodic = box_.periodic;
+  const double box = box_.length, half = 0.5 * box_.length;
+  auto wrap = [&](double d) { return d > half ? d - box : (d < -half ? d + box : d); };
   auto insert = [&](int j) {
     if (j == i) return;
     const Kinematics& kj = bodies_.kin[j];
-    const double tc = t + sphere_touch_time(box_.min_image(position_at(kj, t) - xi), kj.v - ki.v, sigma);
+    const double dt = t - kj.t;
+    double d0 = kj.x[0] + kj.v[0] * dt - x0, d1 = kj.x[1] + kj.v[1] * dt - x1, d2 = kj.x[2] + kj.v[2] * dt - x2;
+    if (periodic) {
+      d0 = wrap(d0);
+      d1 = wrap(d1);
+      d2 = wrap(d2);
+    }
+    const double w0 = kj.v[0] - v0, w1 = kj.v[1] - v1, w2 = kj.v[2] - v2;
+    const double tc = t + sphere_touch_time(d0 * w0 + d1 * w1 + d2 * w2, d0 * d0 + d1 * d1 + d2 * d2 - sigma * sigma,
+                                            w0 * w0 + w1 * w1 + w2 * w2);
     if (tc >= kNever) return;
     if (n == k_max) {
       // The latest of the K + 1 leaves the list; it bounds all left out.
