@@ -69,14 +69,19 @@ ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Ve
   const Mat3 K = collision_matrix(a, b);
   ContactResult r = newton_coulomb(u, K, n, law);
   if (law.min_separation > 0.0 && law.restitution >= 1.0) {
-    const double un_after = n.dot(u + K * r.impulse);
-    if (un_after < law.min_separation) {
-      r.impulse += ((law.min_separation - un_after) / n.dot(K * n)) * n;
+    const double top_up = floor_impulse(n.dot(u + K * r.impulse), n.dot(K * n), law);
+    if (top_up > 0.0) {
+      r.impulse += top_up * n;
       r.floored = true;
     }
   }
   r.energy_loss = energy_loss(u, K, r.impulse);
   return r;
+}
+
+double floor_impulse(double un_after, double k_nn, const ContactLaw& law) {
+  if (law.min_separation <= 0.0 || law.restitution < 1.0 || un_after >= law.min_separation) return 0.0;
+  return (law.min_separation - un_after) / k_nn;
 }
 
 Vec3 relative_point_velocity(const ContactSide& a, const ContactSide& b) { return point_velocity(b) - point_velocity(a); }

@@ -52,6 +52,12 @@ struct ContactResult {
 
 ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law);
 
+// The normal impulse the separation floor adds (law.min_separation, elastic
+// contacts only) when an impulse leaves the contact separating at normal
+// speed un_after; k_nn = n.K.n, the normal speed one unit of impulse along n
+// makes. 0 when the floor does not apply.
+double floor_impulse(double un_after, double k_nn, const ContactLaw& law);
+
 // Kinetic energy an impulse J on B (-J on A) takes out of the pair: with u the
 // relative velocity of the contact points (B minus A), before and after,
 // -J . (u- + u+) / 2, exact for rigid bodies: a body's energy changes by

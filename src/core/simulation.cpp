@@ -455,35 +455,48 @@ void Simulation::touch(int b, double t, bool impulse) {
   }
 }
 
+ContactLaw Simulation::pair_law(int i, int j, double t) {
+  const Species &si = bodies_.sp(i), &sj = bodies_.sp(j);
+  const ContactParams& cp = params_.contact;
+  ContactLaw law{combine(cp.restitution_rule, si.restitution, sj.restitution),
+                 combine(cp.friction_rule, si.static_friction, sj.static_friction),
+                 combine(cp.friction_rule, si.dynamic_friction, sj.dynamic_friction)};
+  // TC model (Luding & McNamara, Granular Matter 1, 113 (1998)): a body hit
+  // again within tc_time of its previous impulse collides elastically, which
+  // stops inelastic collapse (infinitely many collisions in finite time).
+  if (t - bodies_.last_collision[i] < params_.run.tc_time || t - bodies_.last_collision[j] < params_.run.tc_time) {
+    if (law.restitution < 1.0) ++stats_.tc_collisions;
+    law.restitution = 1.0;
+  }
+  law.min_separation = params_.run.min_separation_speed;
+  return law;
+}
+
 void Simulation::collide_smooth_spheres(int i, int j, double t) {
   // Two free spheres without friction: the impulse acts along the line of
   // centres, where it exerts no torque, so the general solver (collision
   // matrix, Coulomb cone) reduces to Newton's law along n:
   //   J = -(1 + e) u_n / (1/m_i + 1/m_j) n   on j (and -J on i),
-  // with the same TC rule, separation floor and energy bookkeeping as
-  // process_collision (which gives these values up to rounding).
+  // with the same law (pair_law), separation floor (floor_impulse) and
+  // energy bookkeeping as process_collision, which gives these values up to
+  // rounding.
   touch(i, t);
   touch(j, t);
   Kinematics &ki = bodies_.kin[i], &kj = bodies_.kin[j];
   const Vec3 n = box_.min_image(kj.x - ki.x).normalized();
   const double un = n.dot(kj.v - ki.v);
+  const ContactLaw law = pair_law(i, j, t);
   if (un < 0.0) {
-    const Species& s = bodies_.sp(i);  // one species in the gas
-    double e = combine(params_.contact.restitution_rule, s.restitution, s.restitution);
-    if (t - bodies_.last_collision[i] < params_.run.tc_time || t - bodies_.last_collision[j] < params_.run.tc_time) {
-      if (e < 1.0) ++stats_.tc_collisions;
-      e = 1.0;
-    }
-    const double inv_mass = 2.0 / s.mass;  // 1/m_i + 1/m_j
-    double jn = -(1.0 + e) * un / inv_mass;
-    const double floor = params_.run.min_separation_speed;
-    if (floor > 0.0 && e >= 1.0 && un + inv_mass * jn < floor) {
-      jn += (floor - (un + inv_mass * jn)) / inv_mass;
+    const double mass = bodies_.sp(i).mass;  // one species in the gas
+    const double k_nn = 2.0 / mass;          // n.K.n = 1/m_i + 1/m_j
+    double jn = -(1.0 + law.restitution) * un / k_nn;
+    if (const double top_up = floor_impulse(un + k_nn * jn, k_nn, law); top_up > 0.0) {
+      jn += top_up;
       ++stats_.floored;
     }
-    stats_.lost_contacts += -jn * (un + 0.5 * inv_mass * jn);
-    ki.v -= (jn / s.mass) * n;
-    kj.v += (jn / s.mass) * n;
+    stats_.lost_contacts += -jn * (un + 0.5 * k_nn * jn);
+    ki.v -= (jn / mass) * n;
+    kj.v += (jn / mass) * n;
   }
   bump(i, t);
   bump(j, t);
@@ -502,21 +515,9 @@ void Simulation::process_collision(int i, int j, double t) {
   const ContactGeometry g = predictor_.contact_geometry(i, j, t);
   const ContactFrame frame = predictor_.contact_frame(i, j, t, g);
   const Vec3& p = frame.point;
-  const Species &si = bodies_.sp(i), &sj = bodies_.sp(j);
   const ContactSide a = contact_side(bodies_, i, t, p, g.center_a);
   const ContactSide b = contact_side(bodies_, j, t, p, g.center_b);
-  const ContactParams& cp = params_.contact;
-  ContactLaw law{combine(cp.restitution_rule, si.restitution, sj.restitution),
-                 combine(cp.friction_rule, si.static_friction, sj.static_friction),
-                 combine(cp.friction_rule, si.dynamic_friction, sj.dynamic_friction)};
-  // TC model (Luding & McNamara, Granular Matter 1, 113 (1998)): a body hit
-  // again within tc_time of its previous impulse collides elastically, which
-  // stops inelastic collapse (infinitely many collisions in finite time).
-  if (t - bodies_.last_collision[i] < params_.run.tc_time || t - bodies_.last_collision[j] < params_.run.tc_time) {
-    if (law.restitution < 1.0) ++stats_.tc_collisions;
-    law.restitution = 1.0;
-  }
-  law.min_separation = params_.run.min_separation_speed;
+  const ContactLaw law = pair_law(i, j, t);
   // The prediction fired because the pair approaches in this very frame
   // (Predictor::approach_rate), so the impulse pushes them apart; unless
   // touch() has just merged a compliant cluster at the end of a contact burst

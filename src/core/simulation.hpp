@@ -32,6 +32,7 @@
 #include "core/bond_graph.hpp"
 #include "core/cell_grid.hpp"
 #include "core/compliant_group.hpp"
+#include "core/contact.hpp"
 #include "core/event_queue.hpp"
 #include "core/params.hpp"
 #include "core/prediction.hpp"
@@ -202,6 +203,9 @@ class Simulation {
   bool bond_possible() const;
   double capture_range() const;
   void process_collision(int i, int j, double t);
+  // The contact law of pair (i, j) at t: combined restitution and friction,
+  // the TC rule (counted) and the separation floor.
+  ContactLaw pair_law(int i, int j, double t);
   // process_collision for the frictionless sphere gas (smooth_gas_).
   void collide_smooth_spheres(int i, int j, double t);
   void process_wall(int i, const Event& ev, double t);
