@@ -81,11 +81,10 @@ FeatureNormal feature_at(const Vec3& p, const Vec3& center, const Vec3& axis, co
 
 }  // namespace
 
-double Predictor::sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const {
+double Predictor::sphere_sphere(int i, int j, double t, const Vec3& xi) const {
   const Kinematics &ki = b_.kin[i], &kj = b_.kin[j];
   const Vec3 dx = box_.min_image(position_at(kj, t) - xi);
-  const double dt = sphere_touch_time(dx, kj.v - ki.v, b_.sp(i).radius + b_.sp(j).radius);
-  return t + dt < limit ? t + dt : kNever;
+  return t + sphere_touch_time(dx, kj.v - ki.v, b_.sp(i).radius + b_.sp(j).radius);
 }
 
 double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
@@ -101,7 +100,7 @@ double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
 double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
   if (in_cluster(b_, i) || in_cluster(b_, j)) return advance_generic(i, j, t, limit);
   if (b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) {
-    const double tc = sphere_sphere(i, j, t, kNever, xi);
+    const double tc = sphere_sphere(i, j, t, xi);
     proven_until_ = tc;
     return tc < limit ? tc : kNever;
   }

@@ -62,9 +62,8 @@ struct Box {
 // from relative position dx and relative velocity dv (B minus A): the
 // smaller root of |dx + dv s| = sigma, in the cancellation-free form
 // c / (-b + sqrt(b^2 - a c)); 0 if touching and approaching, infinity if they
-// do not approach or miss.
-// From b = dx.dv, c = |dx|^2 - sigma^2 and vv = |dv|^2 (the gas's scalar
-// pair loop computes these itself).
+// do not approach or miss. The first form takes b = dx.dv, c = |dx|^2 -
+// sigma^2 and vv = |dv|^2 (the gas's scalar pair loop computes these itself).
 inline double sphere_touch_time(double b, double c, double vv) {
   if (b >= 0.0) return kNever;  // not approaching
   if (c <= 0.0) return 0.0;     // touching (rounding) and approaching
@@ -188,8 +187,9 @@ class Predictor {
   // normals, so no contact can fire from the bound.
   double capsule_far() const { return std::max(kCapsuleFar, 1e3 * delta_); }
   static constexpr double kCapsuleFar = 0.02;
-  // Two free spheres: closed form (xi: i's centre at t); kNever if not before limit.
-  double sphere_sphere(int i, int j, double t, double limit, const Vec3& xi) const;
+  // Two free spheres: their first contact at or after t, closed form (xi:
+  // i's centre at t); kNever if none.
+  double sphere_sphere(int i, int j, double t, const Vec3& xi) const;
   double advance_pair(int i, int j, double t, double limit);
   bool wall_window(double x, double v, int dir, double reach, double t, double* start, double* end) const;
   // Pairs and walls with a cluster member: plain conservative advancement with
