@@ -37,6 +37,16 @@ Vec3 random_unit(std::mt19937_64& rng) {
   return v.normalized();
 }
 
+// The second axis of a random pose: every sixth pose from it % 6 == 1 on
+// parallel, antiparallel and perpendicular to the first (the special cases of
+// every distance routine), the random direction `ub` otherwise.
+Vec3 special_axis(int it, const Vec3& ua, const Vec3& ub) {
+  if (it % 6 == 1) return ua;
+  if (it % 6 == 2) return -ua;
+  if (it % 6 == 3) return ua.cross(ub).normalized();
+  return ub;
+}
+
 // ---- point / sphere vs cylinder ------------------------------------------------
 
 TEST(PointCylinder, InsideIsZeroAndSelf) {
@@ -257,15 +267,12 @@ TEST(CylinderCylinder, OverlapIsNonPositiveAndFinite) {
 // (A pair at distance 1.9e-7 that FCL's collide() calls colliding was seen.)
 TEST(CylinderCylinder, RandomPosesAgreeWithFcl) {
   std::mt19937_64 rng(12345);
-  std::uniform_real_distribution<double> u(-1.0, 1.0), pos(0.0, 1.0);
+  std::uniform_real_distribution<double> pos(0.0, 1.0);
   auto unit = [&] { return random_unit(rng); };
   int separated = 0, overlapping = 0;
   for (int it = 0; it < 3000; ++it) {
     const Cylinder a{Vec3::Zero(), unit(), 0.2 + 1.5 * pos(rng), 0.05 + 3.0 * pos(rng)};
-    Vec3 ub = unit();
-    if (it % 6 == 1) ub = a.axis;
-    if (it % 6 == 2) ub = -a.axis;
-    if (it % 6 == 3) ub = a.axis.cross(ub).normalized();
+    const Vec3 ub = special_axis(it, a.axis, unit());
     const double rb = 0.2 + 1.5 * pos(rng), hb = 0.05 + 3.0 * pos(rng);
     const double reach = std::hypot(a.radius, a.half_length) + std::hypot(rb, hb);
     const Vec3 dir = it % 6 == 4 ? a.axis : unit();
@@ -362,10 +369,7 @@ TEST(SegmentSegment, MatchesBruteForce) {
   double worst = 0.0;
   for (int it = 0; it < 3000; ++it) {
     const Vec3 ua = unit();
-    Vec3 ub = unit();
-    if (it % 6 == 1) ub = ua;
-    if (it % 6 == 2) ub = -ua;
-    if (it % 6 == 3) ub = ua.cross(ub).normalized();
+    Vec3 ub = special_axis(it, ua, unit());
     if (it % 6 == 4) ub = (ua + 1e-9 * unit()).normalized();  // nearly parallel
     const double ha = 3.0 * pos(rng), hb = 3.0 * pos(rng);
     const Vec3 ca = Vec3(u(rng), u(rng), u(rng)), cb = it % 6 == 5 ? Vec3(ca + 6.0 * u(rng) * ua) : Vec3(5.0 * Vec3(u(rng), u(rng), u(rng)));
@@ -424,16 +428,14 @@ TEST(CapsuleCapsule, LowerBoundOnReference) {
 
 TEST(CapsuleCapsule, LowerBoundOnRandomPoses) {
   std::mt19937_64 rng(777);
-  std::uniform_real_distribution<double> u(-1.0, 1.0), pos(0.0, 1.0);
+  std::uniform_real_distribution<double> pos(0.0, 1.0);
   auto unit = [&] { return random_unit(rng); };
   int separated = 0, lateral = 0;
   for (int it = 0; it < 3000; ++it) {
     // Linkers (radius 1, half length 2) half the time, random sizes otherwise.
     const bool linker = it % 2 == 0;
     const Cylinder a{Vec3::Zero(), unit(), linker ? 1.0 : 0.2 + 1.5 * pos(rng), linker ? 2.0 : 0.05 + 3.0 * pos(rng)};
-    Vec3 ub = unit();
-    if (it % 6 == 1) ub = a.axis;
-    if (it % 6 == 3) ub = a.axis.cross(ub).normalized();
+    const Vec3 ub = special_axis(it, a.axis, unit());
     const double rb = linker ? 1.0 : 0.2 + 1.5 * pos(rng), hb = linker ? 2.0 : 0.05 + 3.0 * pos(rng);
     const double reach = std::hypot(a.radius, a.half_length) + std::hypot(rb, hb);
     const Cylinder b{(0.5 + 1.5 * pos(rng)) * reach * unit(), ub, rb, hb};
