@@ -21,6 +21,12 @@ inline Vec3 omega_at(const Kinematics& k, double t) { return k.precession + k.sp
 
 // Move the reference time of a body to t (same trajectory).
 void advance(Kinematics& k, double t);
+// The same for a sphere, whose axis carries no information (it keeps
+// (0, 0, 1)): only the centre moves, and no rotation is evaluated.
+inline void advance_center(Kinematics& k, double t) {
+  k.x += k.v * (t - k.t);
+  k.t = t;
+}
 
 // Angular momentum and kinetic energy of a body at its reference time.
 Vec3 angular_momentum(const Kinematics& k, const Species& s);

@@ -440,7 +440,8 @@ void Simulation::touch(int b, double t, bool impulse) {
   }
   const int g = bodies_.group[b];
   if (g < 0) {
-    advance(bodies_.kin[b], t);
+    if (bodies_.shape[b] == Shape::Sphere) advance_center(bodies_.kin[b], t);
+    else advance(bodies_.kin[b], t);
   } else if (compliant_ && g < static_cast<int>(dormant_.size()) && dormant_[g] >= 0) {
     CompliantGroup& G = cgroups_[dormant_[g]];
     if (t >= G.hold_until || !impulse) {
@@ -680,8 +681,11 @@ Termination Simulation::run() {
 }
 
 void Simulation::synchronize(double t) {
-  for (int i = 0; i < bodies_.size(); ++i)
-    if (!in_cluster(bodies_, i)) advance(bodies_.kin[i], t);
+  for (int i = 0; i < bodies_.size(); ++i) {
+    if (in_cluster(bodies_, i)) continue;
+    if (bodies_.shape[i] == Shape::Sphere) advance_center(bodies_.kin[i], t);
+    else advance(bodies_.kin[i], t);
+  }
   for (Cluster& c : bodies_.clusters)
     if (c.alive) rebase_cluster(c, box_, t);
   snapshot_members(bodies_, box_, t);
