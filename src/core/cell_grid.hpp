@@ -10,6 +10,7 @@
 // Lists are intrusive doubly linked (head per cell, next/prev per body): O(1)
 // insert and remove, no allocation in the event loop.
 
+#include <algorithm>
 #include <array>
 #include <vector>
 
@@ -64,6 +65,46 @@ class CellGrid {
       for (int b = 0; b < count[1]; ++b)
         for (int e = 0; e < count[2]; ++e)
           for (int j = head_[row[0][a] + row[1][b] + row[2][e]]; j >= 0; j = next_[j]) f(j);
+  }
+
+  // Calls f(j, near_a, near_b) once for every body j in the union of the
+  // neighbourhoods (27 cells) of cells a and b, visiting each cell once;
+  // near_a: j's cell is adjacent to (or is) a. Needs a and b at most one cell
+  // apart along each axis and, in a periodic box, at least 4 cells per side
+  // (so the union's up to 4 rows per axis are distinct); otherwise it returns
+  // false without calling f.
+  template <class F>
+  bool for_each_near_pair(int a, int b, F&& f) const {
+    if (periodic_ && n_ < 4) return false;
+    const auto ca = coords(a), cb = coords(b);
+    int row[3][4];            // per axis: the union's cell coordinates, pre-multiplied
+    unsigned char mask[3][4];  // bit 0: within one of a, bit 1: within one of b
+    int count[3];
+    const int stride[3] = {1, n_, n_ * n_};
+    for (int d = 0; d < 3; ++d) {
+      int delta = cb[d] - ca[d];
+      if (periodic_) delta = delta > 1 ? delta - n_ : (delta < -1 ? delta + n_ : delta);
+      if (delta < -1 || delta > 1) return false;
+      count[d] = 0;
+      for (int o = std::min(0, delta) - 1; o <= std::max(0, delta) + 1; ++o) {
+        int q = ca[d] + o;
+        if (periodic_) q = wrap(q);
+        else if (q < 0 || q >= n_) continue;
+        row[d][count[d]] = q * stride[d];
+        mask[d][count[d]++] = static_cast<unsigned char>((o >= -1 && o <= 1 ? 1 : 0) | (o - delta >= -1 && o - delta <= 1 ? 2 : 0));
+      }
+    }
+    for (int x = 0; x < count[0]; ++x)
+      for (int y = 0; y < count[1]; ++y) {
+        const int mxy = mask[0][x] & mask[1][y];
+        if (!mxy) continue;
+        for (int z = 0; z < count[2]; ++z) {
+          const int m = mxy & mask[2][z];
+          if (!m) continue;
+          for (int j = head_[row[0][x] + row[1][y] + row[2][z]]; j >= 0; j = next_[j]) f(j, (m & 1) != 0, (m & 2) != 0);
+        }
+      }
+    return true;
   }
 
   // True when the 27 cells around any cell are distinct (a periodic box needs

@@ -149,42 +149,39 @@ void Simulation::take_earlier_wall(int i, double t, Event* e) {
   }
 }
 
-void Simulation::predict_sphere(int i, double t, SphereScan scan, int dim, int dir) {
-  const int k_max = params_.run.sphere_candidates;
-  SphereCandidate* list = &sphere_list_[static_cast<std::size_t>(i) * k_max];
-  int& n = sphere_count_[i];
-  double& floor = sphere_floor_[i];
-  Event& own = sphere_own_[i];
-  if (scan == SphereScan::Full) {
-    n = 0;
-    floor = kNever;
-  } else {
-    int kept = 0;  // drop pairs whose partner has changed trajectory
-    for (int k = 0; k < n; ++k)
-      if (bodies_.counter[list[k].partner] == list[k].partner_counter) list[kept++] = list[k];
-    n = kept;
+// One body's candidate list being filled by a scan: the pair loop in scalars,
+// the box's minimum image hoisted out of it (Box::min_image's arithmetic).
+// The count and floor live here during the scan and are stored by commit().
+struct Simulation::SphereFill {
+  SphereFill(Simulation& s, int i, double time, bool reset)
+      : self(i),
+        t(time),
+        k_max(s.params_.run.sphere_candidates),
+        list(&s.sphere_list_[static_cast<std::size_t>(i) * k_max]),
+        n(reset ? 0 : s.sphere_count_[i]),
+        floor(reset ? kNever : s.sphere_floor_[i]),
+        periodic(s.box_.periodic),
+        box(s.box_.length),
+        half(0.5 * s.box_.length) {
+    const Kinematics& k = s.bodies_.kin[i];
+    xi = position_at(k, time);
+    x0 = xi[0], x1 = xi[1], x2 = xi[2], v0 = k.v[0], v1 = k.v[1], v2 = k.v[2];
+    const double sigma = 2.0 * s.bodies_.sp(i).radius;  // one species: every body is a sphere
+    sigma_sq = sigma * sigma;
   }
-  const Kinematics& ki = bodies_.kin[i];
-  const Vec3 xi = position_at(ki, t);
-  const double sigma = 2.0 * bodies_.sp(i).radius;  // one species: every body is a sphere
-  // The pair loop in scalars, the box's minimum image hoisted out of it
-  // (Box::min_image's arithmetic).
-  const double x0 = xi[0], x1 = xi[1], x2 = xi[2], v0 = ki.v[0], v1 = ki.v[1], v2 = ki.v[2];
-  const bool periodic = box_.periodic;
-  const double box = box_.length, half = 0.5 * box_.length;
-  auto wrap = [&](double d) { return d > half ? d - box : (d < -half ? d + box : d); };
-  auto insert = [&](int j) {
-    if (j == i) return;
-    const Kinematics& kj = bodies_.kin[j];
-    const double dt = t - kj.t;
-    double d0 = kj.x[0] + kj.v[0] * dt - x0, d1 = kj.x[1] + kj.v[1] * dt - x1, d2 = kj.x[2] + kj.v[2] * dt - x2;
+  double wrap(double d) const { return d > half ? d - box : (d < -half ? d + box : d); }
+  // Partner j (impulse counter c) at position p, velocity u at time t.
+  // Inlined into each scan by force: as a call the gas benchmark ran 3 % more
+  // instructions.
+  [[gnu::always_inline]] void insert(int j, std::uint32_t c, double p0, double p1, double p2, double u0, double u1, double u2) {
+    double d0 = p0 - x0, d1 = p1 - x1, d2 = p2 - x2;
     if (periodic) {
       d0 = wrap(d0);
       d1 = wrap(d1);
       d2 = wrap(d2);
     }
-    const double w0 = kj.v[0] - v0, w1 = kj.v[1] - v1, w2 = kj.v[2] - v2;
-    const double tc = t + sphere_touch_time(d0 * w0 + d1 * w1 + d2 * w2, d0 * d0 + d1 * d1 + d2 * d2 - sigma * sigma,
+    const double w0 = u0 - v0, w1 = u1 - v1, w2 = u2 - v2;
+    const double tc = t + sphere_touch_time(d0 * w0 + d1 * w1 + d2 * w2, d0 * d0 + d1 * d1 + d2 * d2 - sigma_sq,
                                             w0 * w0 + w1 * w1 + w2 * w2);
     if (tc >= kNever) return;
     if (n == k_max) {
@@ -198,13 +195,77 @@ void Simulation::predict_sphere(int i, double t, SphereScan scan, int dim, int d
     }
     int k = n++;
     for (; k > 0 && list[k - 1].time > tc; --k) list[k] = list[k - 1];
-    list[k] = SphereCandidate{tc, j, bodies_.counter[j]};
+    list[k] = SphereCandidate{tc, j, c};
+  }
+  void commit(Simulation& s) const {
+    s.sphere_count_[self] = n;
+    s.sphere_floor_[self] = floor;
+  }
+
+  int self;
+  double t;
+  int k_max;
+  SphereCandidate* list;
+  int n;
+  double floor;
+  bool periodic;
+  double box, half;
+  Vec3 xi;
+  double x0, x1, x2, v0, v1, v2, sigma_sq;
+};
+
+void Simulation::predict_sphere(int i, double t, SphereScan scan, int dim, int dir) {
+  if (scan != SphereScan::Full) {
+    // Drop pairs whose partner has changed trajectory.
+    SphereCandidate* list = &sphere_list_[static_cast<std::size_t>(i) * params_.run.sphere_candidates];
+    int& n = sphere_count_[i];
+    int kept = 0;
+    for (int k = 0; k < n; ++k)
+      if (bodies_.counter[list[k].partner] == list[k].partner_counter) list[kept++] = list[k];
+    n = kept;
+  }
+  SphereFill fill(*this, i, t, scan == SphereScan::Full);
+  auto insert = [&](int j) {
+    if (j == i) return;
+    const Kinematics& kj = bodies_.kin[j];
+    const double dt = t - kj.t;
+    fill.insert(j, bodies_.counter[j], kj.x[0] + kj.v[0] * dt, kj.x[1] + kj.v[1] * dt, kj.x[2] + kj.v[2] * dt,
+                kj.v[0], kj.v[1], kj.v[2]);
   };
   if (scan == SphereScan::Full) grid_.for_each_near(grid_.cell_of_body(i), insert);
   if (scan == SphereScan::Crossing) grid_.for_each_face(grid_.cell_of_body(i), dim, dir, insert);
+  fill.commit(*this);
+  finish_sphere(i, t, scan, fill.xi);
+}
+
+void Simulation::predict_sphere_pair(int i, int j, double t) {
+  SphereFill a(*this, i, t, true), b(*this, j, t, true);
+  const bool merged =
+      grid_.for_each_near_pair(grid_.cell_of_body(i), grid_.cell_of_body(j), [&](int k, bool near_i, bool near_j) {
+        const Kinematics& kk = bodies_.kin[k];
+        const double dt = t - kk.t;
+        const double p0 = kk.x[0] + kk.v[0] * dt, p1 = kk.x[1] + kk.v[1] * dt, p2 = kk.x[2] + kk.v[2] * dt;
+        const std::uint32_t c = bodies_.counter[k];
+        if (near_i && k != i) a.insert(k, c, p0, p1, p2, kk.v[0], kk.v[1], kk.v[2]);
+        if (near_j && k != j) b.insert(k, c, p0, p1, p2, kk.v[0], kk.v[1], kk.v[2]);
+      });
+  if (!merged) {
+    predict_sphere(i, t, SphereScan::Full);
+    predict_sphere(j, t, SphereScan::Full);
+    return;
+  }
+  a.commit(*this);
+  b.commit(*this);
+  finish_sphere(i, t, SphereScan::Full, a.xi);
+  finish_sphere(j, t, SphereScan::Full, b.xi);
+}
+
+void Simulation::finish_sphere(int i, double t, SphereScan scan, const Vec3& xi) {
+  const SphereCandidate* list = &sphere_list_[static_cast<std::size_t>(i) * params_.run.sphere_candidates];
+  Event& own = sphere_own_[i];
   if (scan != SphereScan::Stale) own = free_body_exit(i, t, xi);
-  const double first = n > 0 ? list[0].time : kNever;
-  if (std::min(first, own.time) > floor) {
+  const double first = sphere_count_[i] > 0 ? list[0].time : kNever;
+  if (std::min(first, own.time) > sphere_floor_[i]) {
     // Pairs left out of the list may come first: scan everything again.
     predict_sphere(i, t, SphereScan::Full);
     return;
@@ -502,8 +563,7 @@ void Simulation::collide_smooth_spheres(int i, int j, double t) {
   bump(i, t);
   bump(j, t);
   ++stats_.collisions;
-  predict_sphere(i, t, SphereScan::Full);
-  predict_sphere(j, t, SphereScan::Full);
+  predict_sphere_pair(i, j, t);
 }
 
 void Simulation::process_collision(int i, int j, double t) {

@@ -188,6 +188,15 @@ class Simulation {
   // scanned again (Full, also after every impulse).
   enum class SphereScan { Full, Stale, Crossing };
   void predict_sphere(int i, double t, SphereScan scan, int dim = 0, int dir = 0);
+  // Both bodies of a collision (Full scans) in one pass over the union of
+  // their neighbourhoods, each partner's state read once; the lists come out
+  // as two predict_sphere calls would leave them (the K earliest and the
+  // floor do not depend on the order of the scan).
+  void predict_sphere_pair(int i, int j, double t);
+  // predict_sphere's ending: the own event (crossing or wall), the check of
+  // the list against its floor, the queue entry.
+  void finish_sphere(int i, double t, SphereScan scan, const Vec3& xi);
+  struct SphereFill;  // one body's list during a scan (simulation.cpp)
   struct SphereCandidate {
     double time;
     int partner;
