@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,22 +26,49 @@
 namespace ringsim {
 namespace {
 
-TEST(EventQueue, TournamentMatchesReferenceUnderRandomUpdates) {
-  TournamentQueue fast;
+// Random updates with coarse times, so that ties happen often; `spread`
+// scales the times (a calendar queue re-bins as they move on).
+void expect_matches_reference(EventQueue& fast, int n, double spread, bool increasing) {
   ReferenceQueue ref;
-  const int n = 37;
   fast.reset(n);
   ref.reset(n);
   Rng rng(3, 0, Stream::Placement);
+  double now = 0.0;
   for (int k = 0; k < 20000; ++k) {
-    const int i = static_cast<int>(rng.below(n));
-    // Coarse times so that ties happen often.
-    const double t = std::floor(rng.uniform() * 50.0);
+    // Either any body at any time, or (increasing) the earliest one moved
+    // past the present, as in a simulation; now and then one to infinity.
+    const int i = increasing ? ref.top() : static_cast<int>(rng.below(n));
+    if (increasing) now = std::max(now, ref.time(i) < 1e300 ? ref.time(i) : now);
+    double t = now + std::floor(rng.uniform() * 50.0) * spread;
+    if (rng.uniform() < 0.02) t = std::numeric_limits<double>::infinity();
     fast.update(i, t);
     ref.update(i, t);
     ASSERT_EQ(fast.top(), ref.top()) << "after update " << k;
     ASSERT_EQ(fast.time(i), t);
   }
+}
+
+TEST(EventQueue, CalendarMatchesReferenceUnderRandomUpdates) {
+  for (const int n : {1, 5, 37, 300})
+    for (const double spread : {1e-9, 1.0, 1e6})
+      for (const bool increasing : {false, true}) {
+        SCOPED_TRACE(testing::Message() << "n " << n << " spread " << spread << " increasing " << increasing);
+        CalendarQueue q;
+        expect_matches_reference(q, n, spread, increasing);
+      }
+}
+
+TEST(EventQueue, CalendarWithEveryTimeInfiniteReturnsTheLowestId) {
+  CalendarQueue q;
+  q.reset(5);
+  EXPECT_EQ(q.top(), 0);
+  q.update(3, 2.0);
+  EXPECT_EQ(q.top(), 3);
+  q.update(3, std::numeric_limits<double>::infinity());
+  EXPECT_EQ(q.top(), 0);
+  q.update(0, std::numeric_limits<double>::infinity());
+  q.update(4, 1e300);
+  EXPECT_EQ(q.top(), 4);
 }
 
 std::vector<Simulation::LoggedEvent> event_log(SimParams p, std::uint64_t seed) {

@@ -7,11 +7,13 @@
 // invalidation, as in DynamO and Smallenburg's EDMD).
 //
 // Implementations (a coarse plug-in, hence the virtual interface):
-//  - TournamentQueue: a complete binary tournament tree over the bodies;
-//    update is O(log N) with one comparison per level, no allocation. Each
-//    node holds its winner's time with its id (no indirect load per level),
-//    and an update stops at the first node whose winner and time are
-//    unchanged: nothing above it can change.
+//  - CalendarQueue: Paul's bounded priority queue (G. Paul, J. Comput. Phys.
+//    221, 615 (2007), as used by Smallenburg's EDMD): a ring of M time
+//    buckets of equal width after a base time, the current bucket's bodies in
+//    a small binary heap, later ones in unsorted per-bucket lists and those
+//    past the ring (or never) in an overflow list, re-binned when the ring is
+//    used up. Update and top are O(1) on average when the width suits the
+//    event rate; the width is re-chosen at every re-binning.
 //  - ReferenceQueue: a linear scan; slow and obviously correct, for tests.
 
 #include <memory>
@@ -30,23 +32,41 @@ class EventQueue {
   virtual double time(int body) const = 0;
 };
 
-class TournamentQueue final : public EventQueue {
+class CalendarQueue final : public EventQueue {
  public:
   void reset(int bodies) override;
   void update(int body, double time) override;
-  int top() const override { return tree_[1].body; }
-  double time(int body) const override { return tree_[leaves_ + body].time; }
+  int top() const override;
+  double time(int body) const override { return times_[body]; }
 
  private:
-  struct Node {
-    double time;
-    int body;
-  };
-  static const Node& earlier(const Node& a, const Node& b) {
-    return a.time < b.time || (a.time == b.time && a.body < b.body) ? a : b;
-  }
-  int leaves_ = 1;
-  std::vector<Node> tree_;  // size 2 * leaves_; node k: winner of its subtree; leaves padded with +inf
+  // where_[b]: b's bucket (0 .. M-1), or one of these.
+  static constexpr int kHeap = -1, kOverflow = -2;
+  bool before(int a, int b) const { return times_[a] < times_[b] || (times_[a] == times_[b] && a < b); }
+  void place(int b) const;
+  void unlink(int b) const;
+  void link(int b, int list) const;  // list: a bucket, or M_ for the overflow
+  void heap_push(int b) const;
+  void heap_remove(int b) const;
+  void sift_up(std::size_t k) const;
+  void sift_down(std::size_t k) const;
+  void refill() const;   // the heap empty: the next bucket, or a re-binning
+  void rebin() const;    // a new base and width from the overflow list (binned_ false: no finite time)
+
+  // Invariant: with k(b) = floor((times_[b] - base_) / width_), computed as
+  // (times_[b] - base_) * inv_width_, the heap holds every b with k <= cur_,
+  // bucket j holds those with k = j for cur_ < j < M_, the overflow list the
+  // rest (k >= M_, infinite times) and every body before the first re-binning.
+  // k is monotone in the time, so every heap time precedes every other.
+  // Mutable: top() refills the heap lazily.
+  int M_ = 1;
+  std::vector<double> times_;
+  mutable std::vector<int> where_, next_, prev_, head_;  // head_[M_]: the overflow list
+  mutable std::vector<int> heap_, pos_;
+  mutable double base_ = 0.0, inv_width_ = 1.0;
+  mutable int cur_ = 0;
+  mutable bool binned_ = false;
+  mutable std::vector<double> scratch_;  // rebin's finite times
 };
 
 class ReferenceQueue final : public EventQueue {
