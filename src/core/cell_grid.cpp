@@ -18,6 +18,7 @@ CellGrid::CellGrid(double box_length, double min_cell, int bodies, bool periodic
   next_.assign(bodies, -1);
   prev_.assign(bodies, -1);
   cell_.assign(bodies, -1);
+  if (n_ <= 64) occupied_.assign(static_cast<std::size_t>(n_) * n_, 0);
   // With fewer than 3 cells along a side of a periodic box, offsets -1 and +1
   // reach the same cell: keep each distinct cell once.
   if (periodic_ && n_ < 3) {
@@ -39,6 +40,7 @@ void CellGrid::link(int body, int cell) {
   next_[body] = head_[cell];
   if (head_[cell] >= 0) prev_[head_[cell]] = body;
   head_[cell] = body;
+  if (!occupied_.empty()) occupied_[cell / n_] |= std::uint64_t{1} << (cell % n_);
 }
 
 void CellGrid::unlink(int body) {
@@ -46,6 +48,7 @@ void CellGrid::unlink(int body) {
   if (prev_[body] >= 0) next_[prev_[body]] = next_[body]; else head_[c] = next_[body];
   if (next_[body] >= 0) prev_[next_[body]] = prev_[body];
   next_[body] = prev_[body] = -1;
+  if (head_[c] < 0 && !occupied_.empty()) occupied_[c / n_] &= ~(std::uint64_t{1} << (c % n_));
 }
 
 void CellGrid::insert(int body, const Vec3& x) { link(body, locate(x)); }

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include "core/params.hpp"
@@ -45,26 +46,14 @@ class CellGrid {
 
   // Calls f(j) for every body j in the cells adjacent to (and including) c.
   // The wrapped (or clipped) coordinates are found once per axis, not once
-  // per cell; the x offset varies slowest, the z offset fastest.
+  // per cell (for_each_in_block).
   template <class F>
   void for_each_near(int c, F&& f) const {
     const auto cc = coords(c);
-    int row[3][3];  // per axis: the cell coordinates to visit, pre-multiplied
-    int count[3];
-    const int stride[3] = {1, n_, n_ * n_};
-    for (int d = 0; d < 3; ++d) {
-      count[d] = 0;
-      for (int k = 0; k < n_axis_; ++k) {
-        int q = cc[d] + axis_offsets_[k];
-        if (periodic_) q = wrap(q);
-        else if (q < 0 || q >= n_) continue;
-        row[d][count[d]++] = q * stride[d];
-      }
-    }
-    for (int a = 0; a < count[0]; ++a)
-      for (int b = 0; b < count[1]; ++b)
-        for (int e = 0; e < count[2]; ++e)
-          for (int j = head_[row[0][a] + row[1][b] + row[2][e]]; j >= 0; j = next_[j]) f(j);
+    Block blk;
+    for (int d = 0; d < 3; ++d)
+      for (int k = 0; k < n_axis_; ++k) blk.add(*this, d, cc[d] + axis_offsets_[k]);
+    for_each_in_block(blk, f);
   }
 
   // Calls f(j, near_a, near_b) once for every body j in the union of the
@@ -77,10 +66,11 @@ class CellGrid {
   bool for_each_near_pair(int a, int b, F&& f) const {
     if (periodic_ && n_ < 4) return false;
     const auto ca = coords(a), cb = coords(b);
-    int row[3][4];            // per axis: the union's cell coordinates, pre-multiplied
+    int row[3][4];             // per axis: the union's cell coordinates, pre-multiplied
+    int occ[3][4];             // ... for the row index y + n_ z of occupied_
     unsigned char mask[3][4];  // bit 0: within one of a, bit 1: within one of b
     int count[3];
-    const int stride[3] = {1, n_, n_ * n_};
+    const int stride[3] = {1, n_, n_ * n_}, occ_stride[3] = {0, 1, n_};
     for (int d = 0; d < 3; ++d) {
       int delta = cb[d] - ca[d];
       if (periodic_) delta = delta > 1 ? delta - n_ : (delta < -1 ? delta + n_ : delta);
@@ -91,17 +81,24 @@ class CellGrid {
         if (periodic_) q = wrap(q);
         else if (q < 0 || q >= n_) continue;
         row[d][count[d]] = q * stride[d];
+        occ[d][count[d]] = q * occ_stride[d];
         mask[d][count[d]++] = static_cast<unsigned char>((o >= -1 && o <= 1 ? 1 : 0) | (o - delta >= -1 && o - delta <= 1 ? 2 : 0));
       }
     }
+    unsigned select[4] = {0, 0, 0, 0};  // select[m]: the x entries near a (m & 1) or b (m & 2)
     for (int x = 0; x < count[0]; ++x)
+      for (int m = 1; m < 4; ++m)
+        if (mask[0][x] & m) select[m] |= 1u << x;
+    for (int z = 0; z < count[2]; ++z)
       for (int y = 0; y < count[1]; ++y) {
-        const int mxy = mask[0][x] & mask[1][y];
-        if (!mxy) continue;
-        for (int z = 0; z < count[2]; ++z) {
-          const int m = mxy & mask[2][z];
-          if (!m) continue;
-          for (int j = head_[row[0][x] + row[1][y] + row[2][z]]; j >= 0; j = next_[j]) f(j, (m & 1) != 0, (m & 2) != 0);
+        const int myz = mask[1][y] & mask[2][z];
+        if (!myz) continue;
+        const int r = row[1][y] + row[2][z];
+        for (unsigned bits = occupied_in_row(r, occ[1][y] + occ[2][z], row[0], count[0]) & select[myz]; bits;
+             bits &= bits - 1) {
+          const int x = __builtin_ctz(bits);
+          const int m = myz & mask[0][x];
+          for (int j = head_[r + row[0][x]]; j >= 0; j = next_[j]) f(j, (m & 1) != 0, (m & 2) != 0);
         }
       }
     return true;
@@ -116,25 +113,58 @@ class CellGrid {
   template <class F>
   void for_each_face(int c, int dim, int dir, F&& f) const {
     const auto cc = coords(c);
-    const int d1 = (dim + 1) % 3, d2 = (dim + 2) % 3;
-    for (int a = -1; a <= 1; ++a) {
-      for (int b = -1; b <= 1; ++b) {
-        std::array<int, 3> q = cc;
-        q[dim] += dir;
-        q[d1] += a;
-        q[d2] += b;
-        if (periodic_) {
-          for (int& x : q) x = wrap(x);
-        } else if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= n_ || q[1] >= n_ || q[2] >= n_) {
-          continue;
-        }
-        for (int j = head_[index(q[0], q[1], q[2])]; j >= 0; j = next_[j]) f(j);
-      }
+    Block blk;
+    for (int d = 0; d < 3; ++d) {
+      if (d == dim) blk.add(*this, d, cc[d] + dir);
+      else
+        for (int o = -1; o <= 1; ++o) blk.add(*this, d, cc[d] + o);
     }
+    for_each_in_block(blk, f);
   }
 
  private:
   int wrap(int i) const { return i < 0 ? i + n_ : (i >= n_ ? i - n_ : i); }
+  // A block of cells given by up to 3 coordinates per axis (wrapped, or
+  // dropped outside a non-periodic box), each pre-multiplied by the axis'
+  // stride in head_ (row) and in occupied_ (occ: y + n_ z).
+  struct Block {
+    int row[3][3], occ[3][3];
+    int count[3] = {0, 0, 0};
+    void add(const CellGrid& g, int d, int q) {
+      if (g.periodic_) q = g.wrap(q);
+      else if (q < 0 || q >= g.n_) return;
+      row[d][count[d]] = d == 0 ? q : (d == 1 ? q * g.n_ : q * g.n_ * g.n_);
+      occ[d][count[d]++] = d == 0 ? 0 : (d == 1 ? q : q * g.n_);
+    }
+  };
+  // Rows along x, z slowest; in each only the cells that hold a body
+  // (occupied_in_row), x fastest.
+  template <class F>
+  void for_each_in_block(const Block& blk, F&& f) const {
+    if (blk.count[0] == 0) return;  // outside a non-periodic box
+    for (int z = 0; z < blk.count[2]; ++z)
+      for (int y = 0; y < blk.count[1]; ++y) {
+        const int r = blk.row[1][y] + blk.row[2][z];  // the row's cell at x = 0
+        for (unsigned bits = occupied_in_row(r, blk.occ[1][y] + blk.occ[2][z], blk.row[0], blk.count[0]); bits;
+             bits &= bits - 1)
+          for (int j = head_[r + blk.row[0][__builtin_ctz(bits)]]; j >= 0; j = next_[j]) f(j);
+      }
+  }
+  // Bit k set: cell r + xs[k] of the row starting at cell r (row index
+  // `occ_row` into occupied_) holds a body; k < nx <= 4. From the row's bit
+  // mask when there is one (no load per cell), else from head_.
+  unsigned occupied_in_row(int r, int occ_row, const int* xs, int nx) const {
+    unsigned bits = 0;
+    if (!occupied_.empty()) {
+      const std::uint64_t w = occupied_[occ_row];
+      // Consecutive coordinates (no wrap inside the window): one shift.
+      if (xs[nx - 1] - xs[0] == nx - 1) return static_cast<unsigned>(w >> xs[0]) & ((1u << nx) - 1);
+      for (int k = 0; k < nx; ++k) bits |= static_cast<unsigned>((w >> xs[k]) & 1) << k;
+    } else {
+      for (int k = 0; k < nx; ++k) bits |= (head_[r + xs[k]] >= 0 ? 1u : 0u) << k;
+    }
+    return bits;
+  }
   void unlink(int body);
   void link(int body, int cell);
 
@@ -143,6 +173,9 @@ class CellGrid {
   double box_ = 0.0;
   bool periodic_ = false;
   std::vector<int> head_, next_, prev_, cell_;
+  // Bit x of occupied_[y + n_ z]: cell (x, y, z) holds a body. Only with at
+  // most 64 cells per side (else empty, and the scans read head_ alone).
+  std::vector<std::uint64_t> occupied_;
   int axis_offsets_[3] = {-1, 0, 1};  // the distinct offsets along each axis
   int n_axis_ = 3;
 };
