@@ -103,9 +103,10 @@ Interval operator*(Interval a, Interval b) {
   return {*std::min_element(p, p + 4), *std::max_element(p, p + 4)};
 }
 
-// Range of mean + amp cos(th - phase) over [th1, th2] (amp >= 0).
-Interval sinusoid_range(double mean, double amp, double phase, double th1, double th2) {
-  const double v1 = mean + amp * std::cos(th1 - phase), v2 = mean + amp * std::cos(th2 - phase);
+// Range over [th1, th2] (amp >= 0) of a sinusoid whose values at the ends
+// are v1, v2 and which peaks at th = phase (mod 2 pi), bottoming out at
+// phase + pi: mean + amp cos(th - phase).
+Interval sinusoid_range(double v1, double v2, double mean, double amp, double phase, double th1, double th2) {
   Interval r{std::min(v1, v2), std::max(v1, v2)};
   if (amp > 0.0) {
     const double two_pi = 2.0 * M_PI;
@@ -122,8 +123,12 @@ double SupportTrack::max_rate_over(double t1, double t2) const {
   const double th1 = theta(t1), th2 = theta(t2);
   // H = a|c| + r g with g = sqrt(1 - c^2); dH/dth = (a sgn(c) - r c / g) c'
   // with c' = dc/dth = -rho sin(th - phi) = rho cos(th - (phi - pi/2)).
-  const Interval c = sinusoid_range(alpha_, rho_, phi_, th1, th2);
-  const Interval dc = sinusoid_range(0.0, rho_, phi_ - 0.5 * M_PI, th1, th2);
+  // c = alpha + rho cos(th - phi) and dc = rho cos(th - (phi - pi/2)) =
+  // -rho sin(th - phi): one sine and cosine per end serve both.
+  const double cos1 = std::cos(th1 - phi_), sin1 = std::sin(th1 - phi_);
+  const double cos2 = std::cos(th2 - phi_), sin2 = std::sin(th2 - phi_);
+  const Interval c = sinusoid_range(alpha_ + rho_ * cos1, alpha_ + rho_ * cos2, alpha_, rho_, phi_, th1, th2);
+  const Interval dc = sinusoid_range(-rho_ * sin1, -rho_ * sin2, 0.0, rho_, phi_ - 0.5 * M_PI, th1, th2);
   const double c2max = std::max(c.lo * c.lo, c.hi * c.hi);
   const double gmin = std::sqrt(std::max(0.0, 1.0 - c2max));
   if (gmin < 1e-3) return std::numeric_limits<double>::infinity();
