@@ -50,8 +50,9 @@ SupportTrack SupportTrack::of(const Kinematics& k, const Species& sp, const Vec3
   return s;
 }
 
-double SupportTrack::h_at_theta(double th) const {
-  const double c = c_of(th);
+double SupportTrack::h_at_theta(double th) const { return h_at(th, c_of(th)); }
+
+double SupportTrack::h_at(double th, double c) const {
   const double sine = (cross0_ + cross_cos_ * std::cos(th) + cross_sin_ * std::sin(th)).norm();
   return a_ * std::abs(c) + r_ * std::min(1.0, sine);
 }
@@ -70,8 +71,9 @@ double SupportTrack::max_over(double t1, double t2) const {
   // maximum over [th1, th2] is at an end, at an extremum of c inside the
   // interval, or where c passes a maximiser of H(c) = a|c| + r sqrt(1 - c^2),
   // which is concave on [-1, 0] and on [0, 1] with maxima at c = +-a/sqrt(a^2 + r^2).
-  double best = std::max(h_at_theta(th1), h_at_theta(th2));
-  double lo = std::min(c_of(th1), c_of(th2)), hi = std::max(c_of(th1), c_of(th2));
+  const double c1 = c_of(th1), c2 = c_of(th2);  // once: cos may set errno, so calls are not merged
+  double best = std::max(h_at(th1, c1), h_at(th2, c2));
+  double lo = std::min(c1, c2), hi = std::max(c1, c2);
   if (rho_ > 0.0 && rate_ > 0.0) {
     const double two_pi = 2.0 * M_PI;
     const double th_max = phi_ + two_pi * std::ceil((th1 - phi_) / two_pi);

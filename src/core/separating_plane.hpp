@@ -53,6 +53,7 @@ class SupportTrack {
   double theta(double t) const { return rate_ * (t - t0_); }
   double c_of(double th) const { return alpha_ + rho_ * std::cos(th - phi_); }
   double h_at_theta(double th) const;
+  double h_at(double th, double c) const;  // h_at_theta with c = c_of(th) given
   double h_of_c(double c) const;
   bool constant_ = true;
   double value_ = 0.0;  // constant case
