@@ -46,14 +46,14 @@ class CellGrid {
 
   // Calls f(j) for every body j in the cells adjacent to (and including) c.
   // The wrapped (or clipped) coordinates are found once per axis, not once
-  // per cell (for_each_in_block).
+  // per cell (walk).
   template <class F>
   void for_each_near(int c, F&& f) const {
     const auto cc = coords(c);
     Block blk;
     for (int d = 0; d < 3; ++d)
-      for (int k = 0; k < n_axis_; ++k) blk.add(*this, d, cc[d] + axis_offsets_[k]);
-    for_each_in_block(blk, f);
+      for (int k = 0; k < n_axis_; ++k) blk.add(*this, d, cc[d] + axis_offsets_[k], 1);
+    walk(blk, [&](int j, int) { f(j); });
   }
 
   // Calls f(j, near_a, near_b) once for every body j in the union of the
@@ -66,41 +66,15 @@ class CellGrid {
   bool for_each_near_pair(int a, int b, F&& f) const {
     if (periodic_ && n_ < 4) return false;
     const auto ca = coords(a), cb = coords(b);
-    int row[3][4];             // per axis: the union's cell coordinates, pre-multiplied
-    int occ[3][4];             // ... for the row index y + n_ z of occupied_
-    unsigned char mask[3][4];  // bit 0: within one of a, bit 1: within one of b
-    int count[3];
-    const int stride[3] = {1, n_, n_ * n_}, occ_stride[3] = {0, 1, n_};
+    Block blk;
     for (int d = 0; d < 3; ++d) {
       int delta = cb[d] - ca[d];
       if (periodic_) delta = delta > 1 ? delta - n_ : (delta < -1 ? delta + n_ : delta);
       if (delta < -1 || delta > 1) return false;
-      count[d] = 0;
-      for (int o = std::min(0, delta) - 1; o <= std::max(0, delta) + 1; ++o) {
-        int q = ca[d] + o;
-        if (periodic_) q = wrap(q);
-        else if (q < 0 || q >= n_) continue;
-        row[d][count[d]] = q * stride[d];
-        occ[d][count[d]] = q * occ_stride[d];
-        mask[d][count[d]++] = static_cast<unsigned char>((o >= -1 && o <= 1 ? 1 : 0) | (o - delta >= -1 && o - delta <= 1 ? 2 : 0));
-      }
+      for (int o = std::min(0, delta) - 1; o <= std::max(0, delta) + 1; ++o)
+        blk.add(*this, d, ca[d] + o, (o >= -1 && o <= 1 ? 1 : 0) | (o - delta >= -1 && o - delta <= 1 ? 2 : 0));
     }
-    unsigned select[4] = {0, 0, 0, 0};  // select[m]: the x entries near a (m & 1) or b (m & 2)
-    for (int x = 0; x < count[0]; ++x)
-      for (int m = 1; m < 4; ++m)
-        if (mask[0][x] & m) select[m] |= 1u << x;
-    for (int z = 0; z < count[2]; ++z)
-      for (int y = 0; y < count[1]; ++y) {
-        const int myz = mask[1][y] & mask[2][z];
-        if (!myz) continue;
-        const int r = row[1][y] + row[2][z];
-        for (unsigned bits = occupied_in_row(r, occ[1][y] + occ[2][z], row[0], count[0]) & select[myz]; bits;
-             bits &= bits - 1) {
-          const int x = __builtin_ctz(bits);
-          const int m = myz & mask[0][x];
-          for (int j = head_[r + row[0][x]]; j >= 0; j = next_[j]) f(j, (m & 1) != 0, (m & 2) != 0);
-        }
-      }
+    walk(blk, [&](int j, int m) { f(j, (m & 1) != 0, (m & 2) != 0); });
     return true;
   }
 
@@ -115,39 +89,53 @@ class CellGrid {
     const auto cc = coords(c);
     Block blk;
     for (int d = 0; d < 3; ++d) {
-      if (d == dim) blk.add(*this, d, cc[d] + dir);
+      if (d == dim) blk.add(*this, d, cc[d] + dir, 1);
       else
-        for (int o = -1; o <= 1; ++o) blk.add(*this, d, cc[d] + o);
+        for (int o = -1; o <= 1; ++o) blk.add(*this, d, cc[d] + o, 1);
     }
-    for_each_in_block(blk, f);
+    walk(blk, [&](int j, int) { f(j); });
   }
 
  private:
   int wrap(int i) const { return i < 0 ? i + n_ : (i >= n_ ? i - n_ : i); }
-  // A block of cells given by up to 3 coordinates per axis (wrapped, or
+  // A block of cells given by up to 4 coordinates per axis (wrapped, or
   // dropped outside a non-periodic box), each pre-multiplied by the axis'
-  // stride in head_ (row) and in occupied_ (occ: y + n_ z).
+  // stride in head_ (row) and in occupied_ (occ: y + n_ z), each with a
+  // mask of the neighbourhoods it belongs to (bit 0: the first, bit 1: the
+  // second; a cell belongs to those of all three of its coordinates).
   struct Block {
-    int row[3][3], occ[3][3];
+    int row[3][4], occ[3][4];
+    int near[3][4];
     int count[3] = {0, 0, 0};
-    void add(const CellGrid& g, int d, int q) {
+    unsigned select[4] = {0, 0, 0, 0};  // select[m]: the x entries in a neighbourhood of m
+    void add(const CellGrid& g, int d, int q, int mask) {
       if (g.periodic_) q = g.wrap(q);
       else if (q < 0 || q >= g.n_) return;
+      if (d == 0)
+        for (int m = 1; m < 4; ++m)
+          if (mask & m) select[m] |= 1u << count[0];
       row[d][count[d]] = d == 0 ? q : (d == 1 ? q * g.n_ : q * g.n_ * g.n_);
-      occ[d][count[d]++] = d == 0 ? 0 : (d == 1 ? q : q * g.n_);
+      occ[d][count[d]] = d == 0 ? 0 : (d == 1 ? q : q * g.n_);
+      near[d][count[d]++] = mask;
     }
   };
-  // Rows along x, z slowest; in each only the cells that hold a body
-  // (occupied_in_row), x fastest.
+  // Calls f(j, m) for every body j of a cell of the block in at least one
+  // neighbourhood, m its cell's mask. Rows along x, z slowest; in each only
+  // the cells that hold a body (occupied_in_row), x fastest.
   template <class F>
-  void for_each_in_block(const Block& blk, F&& f) const {
+  void walk(const Block& blk, F&& f) const {
     if (blk.count[0] == 0) return;  // outside a non-periodic box
     for (int z = 0; z < blk.count[2]; ++z)
       for (int y = 0; y < blk.count[1]; ++y) {
+        const int myz = blk.near[1][y] & blk.near[2][z];
+        if (!myz) continue;
         const int r = blk.row[1][y] + blk.row[2][z];  // the row's cell at x = 0
-        for (unsigned bits = occupied_in_row(r, blk.occ[1][y] + blk.occ[2][z], blk.row[0], blk.count[0]); bits;
-             bits &= bits - 1)
-          for (int j = head_[r + blk.row[0][__builtin_ctz(bits)]]; j >= 0; j = next_[j]) f(j);
+        for (unsigned bits = occupied_in_row(r, blk.occ[1][y] + blk.occ[2][z], blk.row[0], blk.count[0]) & blk.select[myz];
+             bits; bits &= bits - 1) {
+          const int x = __builtin_ctz(bits);
+          const int m = myz & blk.near[0][x];
+          for (int j = head_[r + blk.row[0][x]]; j >= 0; j = next_[j]) f(j, m);
+        }
       }
   }
   // Bit k set: cell r + xs[k] of the row starting at cell r (row index
