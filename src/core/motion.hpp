@@ -21,9 +21,14 @@ inline Vec3 omega_at(const Kinematics& k, double t) { return k.precession + k.sp
 
 // Move the reference time of a body to t (same trajectory).
 void advance(Kinematics& k, double t);
-// The same for a sphere, whose axis carries no information (it keeps
-// (0, 0, 1)): only the centre moves, and no rotation is evaluated.
-inline void advance_center(Kinematics& k, double t) {
+// The same for a free body of the given shape: a sphere's axis carries no
+// information (it keeps (0, 0, 1)), so only its centre moves and no
+// rotation is evaluated.
+inline void advance(Kinematics& k, double t, Shape shape) {
+  if (shape != Shape::Sphere) {
+    advance(k, t);
+    return;
+  }
   k.x += k.v * (t - k.t);
   k.t = t;
 }

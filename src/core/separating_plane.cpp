@@ -71,7 +71,7 @@ double SupportTrack::max_over(double t1, double t2) const {
   // maximum over [th1, th2] is at an end, at an extremum of c inside the
   // interval, or where c passes a maximiser of H(c) = a|c| + r sqrt(1 - c^2),
   // which is concave on [-1, 0] and on [0, 1] with maxima at c = +-a/sqrt(a^2 + r^2).
-  const double c1 = c_of(th1), c2 = c_of(th2);  // once: cos may set errno, so calls are not merged
+  const double c1 = c_of(th1), c2 = c_of(th2);  // one cosine per end, for h and for the range
   double best = std::max(h_at(th1, c1), h_at(th2, c2));
   double lo = std::min(c1, c2), hi = std::max(c1, c2);
   if (rho_ > 0.0 && rate_ > 0.0) {

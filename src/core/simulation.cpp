@@ -157,7 +157,7 @@ struct Simulation::SphereFill {
       : self(i),
         t(time),
         k_max(s.params_.run.sphere_candidates),
-        list(&s.sphere_list_[static_cast<std::size_t>(i) * k_max]),
+        list(s.sphere_list(i)),
         n(reset ? 0 : s.sphere_count_[i]),
         floor(reset ? kNever : s.sphere_floor_[i]),
         periodic(s.box_.periodic),
@@ -173,14 +173,14 @@ struct Simulation::SphereFill {
   // Partner j (impulse counter c) at position p, velocity u at time t.
   // Inlined into each scan by force: as a call the gas benchmark ran 3 % more
   // instructions.
-  [[gnu::always_inline]] void insert(int j, std::uint32_t c, double p0, double p1, double p2, double u0, double u1, double u2) {
-    double d0 = p0 - x0, d1 = p1 - x1, d2 = p2 - x2;
+  [[gnu::always_inline]] void insert(int j, std::uint32_t c, const Vec3& p, const Vec3& u) {
+    double d0 = p[0] - x0, d1 = p[1] - x1, d2 = p[2] - x2;
     if (periodic) {
       d0 = wrap(d0);
       d1 = wrap(d1);
       d2 = wrap(d2);
     }
-    const double w0 = u0 - v0, w1 = u1 - v1, w2 = u2 - v2;
+    const double w0 = u[0] - v0, w1 = u[1] - v1, w2 = u[2] - v2;
     const double tc = t + sphere_touch_time(d0 * w0 + d1 * w1 + d2 * w2, d0 * d0 + d1 * d1 + d2 * d2 - sigma_sq,
                                             w0 * w0 + w1 * w1 + w2 * w2);
     if (tc >= kNever) return;
@@ -217,7 +217,7 @@ struct Simulation::SphereFill {
 void Simulation::predict_sphere(int i, double t, SphereScan scan, int dim, int dir) {
   if (scan != SphereScan::Full) {
     // Drop pairs whose partner has changed trajectory.
-    SphereCandidate* list = &sphere_list_[static_cast<std::size_t>(i) * params_.run.sphere_candidates];
+    SphereCandidate* list = sphere_list(i);
     int& n = sphere_count_[i];
     int kept = 0;
     for (int k = 0; k < n; ++k)
@@ -228,9 +228,7 @@ void Simulation::predict_sphere(int i, double t, SphereScan scan, int dim, int d
   auto insert = [&](int j) {
     if (j == i) return;
     const Kinematics& kj = bodies_.kin[j];
-    const double dt = t - kj.t;
-    fill.insert(j, bodies_.counter[j], kj.x[0] + kj.v[0] * dt, kj.x[1] + kj.v[1] * dt, kj.x[2] + kj.v[2] * dt,
-                kj.v[0], kj.v[1], kj.v[2]);
+    fill.insert(j, bodies_.counter[j], position_at(kj, t), kj.v);
   };
   if (scan == SphereScan::Full) grid_.for_each_near(grid_.cell_of_body(i), insert);
   if (scan == SphereScan::Crossing) grid_.for_each_face(grid_.cell_of_body(i), dim, dir, insert);
@@ -243,11 +241,10 @@ void Simulation::predict_sphere_pair(int i, int j, double t) {
   const bool merged =
       grid_.for_each_near_pair(grid_.cell_of_body(i), grid_.cell_of_body(j), [&](int k, bool near_i, bool near_j) {
         const Kinematics& kk = bodies_.kin[k];
-        const double dt = t - kk.t;
-        const double p0 = kk.x[0] + kk.v[0] * dt, p1 = kk.x[1] + kk.v[1] * dt, p2 = kk.x[2] + kk.v[2] * dt;
+        const Vec3 p = position_at(kk, t);
         const std::uint32_t c = bodies_.counter[k];
-        if (near_i && k != i) a.insert(k, c, p0, p1, p2, kk.v[0], kk.v[1], kk.v[2]);
-        if (near_j && k != j) b.insert(k, c, p0, p1, p2, kk.v[0], kk.v[1], kk.v[2]);
+        if (near_i && k != i) a.insert(k, c, p, kk.v);
+        if (near_j && k != j) b.insert(k, c, p, kk.v);
       });
   if (!merged) {
     predict_sphere(i, t, SphereScan::Full);
@@ -261,7 +258,7 @@ void Simulation::predict_sphere_pair(int i, int j, double t) {
 }
 
 void Simulation::finish_sphere(int i, double t, SphereScan scan, const Vec3& xi) {
-  const SphereCandidate* list = &sphere_list_[static_cast<std::size_t>(i) * params_.run.sphere_candidates];
+  const SphereCandidate* list = sphere_list(i);
   Event& own = sphere_own_[i];
   if (scan != SphereScan::Stale) own = free_body_exit(i, t, xi);
   const double first = sphere_count_[i] > 0 ? list[0].time : kNever;
@@ -501,8 +498,7 @@ void Simulation::touch(int b, double t, bool impulse) {
   }
   const int g = bodies_.group[b];
   if (g < 0) {
-    if (bodies_.shape[b] == Shape::Sphere) advance_center(bodies_.kin[b], t);
-    else advance(bodies_.kin[b], t);
+    advance(bodies_.kin[b], t, bodies_.shape[b]);
   } else if (compliant_ && g < static_cast<int>(dormant_.size()) && dormant_[g] >= 0) {
     CompliantGroup& G = cgroups_[dormant_[g]];
     if (t >= G.hold_until || !impulse) {
@@ -741,11 +737,8 @@ Termination Simulation::run() {
 }
 
 void Simulation::synchronize(double t) {
-  for (int i = 0; i < bodies_.size(); ++i) {
-    if (in_cluster(bodies_, i)) continue;
-    if (bodies_.shape[i] == Shape::Sphere) advance_center(bodies_.kin[i], t);
-    else advance(bodies_.kin[i], t);
-  }
+  for (int i = 0; i < bodies_.size(); ++i)
+    if (!in_cluster(bodies_, i)) advance(bodies_.kin[i], t, bodies_.shape[i]);
   for (Cluster& c : bodies_.clusters)
     if (c.alive) rebase_cluster(c, box_, t);
   snapshot_members(bodies_, box_, t);

@@ -202,6 +202,9 @@ class Simulation {
     int partner;
     std::uint32_t partner_counter;
   };
+  SphereCandidate* sphere_list(int i) {  // body i's run.sphere_candidates entries
+    return &sphere_list_[static_cast<std::size_t>(i) * params_.run.sphere_candidates];
+  }
   void bump(int i, double t);           // trajectory of i's group changed at t
   void process_capture(int i, const Event& ev, double t);
   // Bond rules (MODEL.md) for sphere s and end `end` of linker l at time t.
