@@ -14,9 +14,7 @@ CellGrid::CellGrid(double box_length, double min_cell, int bodies, bool periodic
   const int cap = std::max(1, static_cast<int>(std::cbrt(8.0 * std::max(bodies, 1))));
   n_ = std::min(n_, std::max(cap, 1));
   w_ = box_length / n_;
-  head_.assign(static_cast<std::size_t>(n_) * n_ * n_, -1);
-  next_.assign(bodies, -1);
-  prev_.assign(bodies, -1);
+  lists_.reset(n_ * n_ * n_, bodies);
   cell_.assign(bodies, -1);
   if (n_ <= 64) occupied_.assign(static_cast<std::size_t>(n_) * n_, 0);
   // With fewer than 3 cells along a side of a periodic box, offsets -1 and +1
@@ -36,19 +34,14 @@ int CellGrid::locate(const Vec3& x) const {
 
 void CellGrid::link(int body, int cell) {
   cell_[body] = cell;
-  prev_[body] = -1;
-  next_[body] = head_[cell];
-  if (head_[cell] >= 0) prev_[head_[cell]] = body;
-  head_[cell] = body;
+  lists_.push_front(body, cell);
   if (!occupied_.empty()) occupied_[cell / n_] |= std::uint64_t{1} << (cell % n_);
 }
 
 void CellGrid::unlink(int body) {
   const int c = cell_[body];
-  if (prev_[body] >= 0) next_[prev_[body]] = next_[body]; else head_[c] = next_[body];
-  if (next_[body] >= 0) prev_[next_[body]] = prev_[body];
-  next_[body] = prev_[body] = -1;
-  if (head_[c] < 0 && !occupied_.empty()) occupied_[c / n_] &= ~(std::uint64_t{1} << (c % n_));
+  lists_.remove(body, c);
+  if (lists_.head[c] < 0 && !occupied_.empty()) occupied_[c / n_] &= ~(std::uint64_t{1} << (c % n_));
 }
 
 void CellGrid::insert(int body, const Vec3& x) { link(body, locate(x)); }

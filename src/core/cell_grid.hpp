@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/intrusive_lists.hpp"
 #include "core/params.hpp"
 #include "core/vec.hpp"
 
@@ -100,7 +101,7 @@ class CellGrid {
   int wrap(int i) const { return i < 0 ? i + n_ : (i >= n_ ? i - n_ : i); }
   // A block of cells given by up to 4 coordinates per axis (wrapped, or
   // dropped outside a non-periodic box), each pre-multiplied by the axis'
-  // stride in head_ (row) and in occupied_ (occ: y + n_ z), each with a
+  // stride in the cell lists (row) and in occupied_ (occ: y + n_ z), each with a
   // mask of the neighbourhoods it belongs to (bit 0: the first, bit 1: the
   // second; a cell belongs to those of all three of its coordinates).
   struct Block {
@@ -134,13 +135,13 @@ class CellGrid {
              bits; bits &= bits - 1) {
           const int x = __builtin_ctz(bits);
           const int m = myz & blk.near[0][x];
-          for (int j = head_[r + blk.row[0][x]]; j >= 0; j = next_[j]) f(j, m);
+          for (int j = lists_.head[r + blk.row[0][x]]; j >= 0; j = lists_.next[j]) f(j, m);
         }
       }
   }
   // Bit k set: cell r + xs[k] of the row starting at cell r (row index
   // `occ_row` into occupied_) holds a body; k < nx <= 4. From the row's bit
-  // mask when there is one (no load per cell), else from head_.
+  // mask when there is one (no load per cell), else from the list heads.
   unsigned occupied_in_row(int r, int occ_row, const int* xs, int nx) const {
     unsigned bits = 0;
     if (!occupied_.empty()) {
@@ -149,7 +150,7 @@ class CellGrid {
       if (xs[nx - 1] - xs[0] == nx - 1) return static_cast<unsigned>(w >> xs[0]) & ((1u << nx) - 1);
       for (int k = 0; k < nx; ++k) bits |= static_cast<unsigned>((w >> xs[k]) & 1) << k;
     } else {
-      for (int k = 0; k < nx; ++k) bits |= (head_[r + xs[k]] >= 0 ? 1u : 0u) << k;
+      for (int k = 0; k < nx; ++k) bits |= (lists_.head[r + xs[k]] >= 0 ? 1u : 0u) << k;
     }
     return bits;
   }
@@ -160,9 +161,10 @@ class CellGrid {
   double w_ = 0.0;
   double box_ = 0.0;
   bool periodic_ = false;
-  std::vector<int> head_, next_, prev_, cell_;
+  IntrusiveLists lists_;  // the bodies of each cell
+  std::vector<int> cell_;
   // Bit x of occupied_[y + n_ z]: cell (x, y, z) holds a body. Only with at
-  // most 64 cells per side (else empty, and the scans read head_ alone).
+  // most 64 cells per side (else empty, and the scans read the list heads).
   std::vector<std::uint64_t> occupied_;
   int axis_offsets_[3] = {-1, 0, 1};  // the distinct offsets along each axis
   int n_axis_ = 3;

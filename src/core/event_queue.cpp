@@ -10,9 +10,7 @@ void CalendarQueue::reset(int bodies) {
   M_ = std::max(16, bodies);
   times_.assign(bodies, std::numeric_limits<double>::infinity());
   where_.assign(bodies, kOverflow);
-  next_.assign(bodies, -1);
-  prev_.assign(bodies, -1);
-  head_.assign(M_ + 1, -1);
+  lists_.reset(M_ + 1, bodies);
   for (int b = bodies - 1; b >= 0; --b) link(b, M_);
   heap_.clear();
   pos_.assign(bodies, -1);
@@ -22,18 +20,10 @@ void CalendarQueue::reset(int bodies) {
 
 void CalendarQueue::link(int b, int list) const {
   where_[b] = list == M_ ? kOverflow : list;
-  prev_[b] = -1;
-  next_[b] = head_[list];
-  if (head_[list] >= 0) prev_[head_[list]] = b;
-  head_[list] = b;
+  lists_.push_front(b, list);
 }
 
-void CalendarQueue::unlink(int b) const {
-  const int list = where_[b] == kOverflow ? M_ : where_[b];
-  if (prev_[b] >= 0) next_[prev_[b]] = next_[b];
-  else head_[list] = next_[b];
-  if (next_[b] >= 0) prev_[next_[b]] = prev_[b];
-}
+void CalendarQueue::unlink(int b) const { lists_.remove(b, where_[b] == kOverflow ? M_ : where_[b]); }
 
 void CalendarQueue::place(int b) const {
   if (!binned_) {
@@ -62,12 +52,12 @@ void CalendarQueue::refill() const {
   while (heap_.empty()) {
     if (binned_) {
       while (++cur_ < M_) {
-        if (head_[cur_] < 0) continue;
-        for (int b = head_[cur_], next; b >= 0; b = next) {
-          next = next_[b];
+        if (lists_.head[cur_] < 0) continue;
+        for (int b = lists_.head[cur_], next; b >= 0; b = next) {
+          next = lists_.next[b];
           heap_push(b);
         }
-        head_[cur_] = -1;
+        lists_.head[cur_] = -1;
         return;
       }
     }
@@ -81,7 +71,7 @@ void CalendarQueue::rebin() const {
   std::vector<double>& gaps = scratch_;
   gaps.clear();
   double t0 = std::numeric_limits<double>::infinity();
-  for (int b = head_[M_]; b >= 0; b = next_[b])
+  for (int b = lists_.head[M_]; b >= 0; b = lists_.next[b])
     if (std::isfinite(times_[b])) {
       gaps.push_back(times_[b]);
       t0 = std::min(t0, times_[b]);
@@ -105,10 +95,10 @@ void CalendarQueue::rebin() const {
   base_ = t0;
   inv_width_ = 1.0 / width;
   cur_ = 0;
-  int b = head_[M_];
-  head_[M_] = -1;
+  int b = lists_.head[M_];
+  lists_.head[M_] = -1;
   for (int next; b >= 0; b = next) {
-    next = next_[b];
+    next = lists_.next[b];
     place(b);
   }
 }

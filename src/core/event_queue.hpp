@@ -19,6 +19,7 @@
 #include <memory>
 #include <vector>
 
+#include "core/intrusive_lists.hpp"
 #include "core/params.hpp"
 
 namespace ringsim {
@@ -61,7 +62,8 @@ class CalendarQueue final : public EventQueue {
   // Mutable: top() refills the heap lazily.
   int M_ = 1;
   std::vector<double> times_;
-  mutable std::vector<int> where_, next_, prev_, head_;  // head_[M_]: the overflow list
+  mutable std::vector<int> where_;
+  mutable IntrusiveLists lists_;  // list j < M_: bucket j; list M_: the overflow
   mutable std::vector<int> heap_, pos_;
   mutable double base_ = 0.0, inv_width_ = 1.0;
   mutable int cur_ = 0;
