@@ -38,7 +38,7 @@ void expect_matches_reference(EventQueue& fast, int n, double spread, bool incre
     // Either any body at any time, or (increasing) the earliest one moved
     // past the present, as in a simulation; now and then one to infinity.
     const int i = increasing ? ref.top() : static_cast<int>(rng.below(n));
-    if (increasing) now = std::max(now, ref.time(i) < 1e300 ? ref.time(i) : now);
+    if (increasing && std::isfinite(ref.time(i))) now = std::max(now, ref.time(i));
     double t = now + std::floor(rng.uniform() * 50.0) * spread;
     if (rng.uniform() < 0.02) t = std::numeric_limits<double>::infinity();
     fast.update(i, t);
