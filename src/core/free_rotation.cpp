@@ -4,6 +4,8 @@
 #include <cassert>
 #include <cmath>
 
+#include "core/fast_trig.hpp"
+
 // Formulas and references
 // -----------------------
 // [LL]  Landau & Lifshitz, Mechanics, 3rd ed., section 37 (Euler's equations
@@ -561,7 +563,8 @@ FreeRotation::Jacobi FreeRotation::jacobi(double v) const {
 
 FreeRotation::Jacobi FreeRotation::jacobi_series(double v, double* jp) const {
   const double zeta = zeta_scale_ * v;
-  const double s1 = std::sin(zeta), c1 = std::cos(zeta);
+  double s1, c1;
+  sin_cos(zeta, &s1, &c1);
   const double c2 = (c1 - s1) * (c1 + s1), s2 = 2.0 * s1 * c1;  // e^(2 i zeta)
   double ce = 1.0, se = 0.0;  // e^(2 i k zeta)
   double co = c1, so = s1;    // e^(i (2k+1) zeta)
@@ -623,7 +626,8 @@ Mat3 FreeRotation::compose(double psi, const Vec3& l) const {
   // With the columns a0, a1, a2 of A and the rows g1, g2, g3 = l of G:
   // A Rz(psi) G = (c a0 + s a1) g1^T + (c a1 - s a0) g2^T + a2 l^T, and the
   // product with P^T is a signed permutation of the rows g_i (columns of the result).
-  const double c = std::cos(psi), s = std::sin(psi);
+  double s, c;
+  sin_cos(psi, &s, &c);
   const double p2 = l[0] * l[0] + l[1] * l[1];  // >= 1/2 by the choice of the pole
   const double ip = 1.0 / std::sqrt(p2);
   const double g1[3] = {l[0] * l[2] * ip, l[1] * l[2] * ip, -p2 * ip};

@@ -41,6 +41,8 @@
 #include <cmath>
 #include <limits>
 
+#include "core/fast_trig.hpp"
+
 namespace ringsim::geom {
 
 namespace {
@@ -212,7 +214,11 @@ class RimSearch {
     return a.fp < -z && b.fp > z;
   }
 
-  RimSample eval(double t) { return eval(t, std::cos(t), std::sin(t)); }
+  RimSample eval(double t) {
+    double st, ct;
+    sin_cos(t, &st, &ct);
+    return eval(t, ct, st);
+  }
 
   RimSample eval(double t, double ct, double st) {
     RimSample s;

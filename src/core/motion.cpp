@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "core/fast_trig.hpp"
+
 namespace ringsim {
 
 Vec3 rotate_about(const Vec3& u, const Vec3& w, double dt) {
@@ -9,7 +11,8 @@ Vec3 rotate_about(const Vec3& u, const Vec3& w, double dt) {
   const double angle = rate * dt;
   if (angle == 0.0) return u;
   const Vec3 k = w / rate;
-  const double c = std::cos(angle), s = std::sin(angle);
+  double s, c;
+  sin_cos(angle, &s, &c);
   // Rodrigues: u cos + (k x u) sin + k (k.u)(1 - cos)
   return u * c + k.cross(u) * s + k * (k.dot(u) * (1.0 - c));
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/fast_trig.hpp"
 #include "core/motion.hpp"
 
 namespace ringsim {
@@ -53,7 +54,9 @@ SupportTrack SupportTrack::of(const Kinematics& k, const Species& sp, const Vec3
 double SupportTrack::h_at_theta(double th) const { return h_at(th, c_of(th)); }
 
 double SupportTrack::h_at(double th, double c) const {
-  const double sine = (cross0_ + cross_cos_ * std::cos(th) + cross_sin_ * std::sin(th)).norm();
+  double s, c_th;
+  sin_cos(th, &s, &c_th);
+  const double sine = (cross0_ + cross_cos_ * c_th + cross_sin_ * s).norm();
   return a_ * std::abs(c) + r_ * std::min(1.0, sine);
 }
 
@@ -127,8 +130,9 @@ double SupportTrack::max_rate_over(double t1, double t2) const {
   // with c' = dc/dth = -rho sin(th - phi) = rho cos(th - (phi - pi/2)).
   // c = alpha + rho cos(th - phi) and dc = rho cos(th - (phi - pi/2)) =
   // -rho sin(th - phi): one sine and cosine per end serve both.
-  const double cos1 = std::cos(th1 - phi_), sin1 = std::sin(th1 - phi_);
-  const double cos2 = std::cos(th2 - phi_), sin2 = std::sin(th2 - phi_);
+  double sin1, cos1, sin2, cos2;
+  sin_cos(th1 - phi_, &sin1, &cos1);
+  sin_cos(th2 - phi_, &sin2, &cos2);
   const Interval c = sinusoid_range(alpha_ + rho_ * cos1, alpha_ + rho_ * cos2, alpha_, rho_, phi_, th1, th2);
   const Interval dc = sinusoid_range(-rho_ * sin1, -rho_ * sin2, 0.0, rho_, phi_ - 0.5 * M_PI, th1, th2);
   const double c2max = std::max(c.lo * c.lo, c.hi * c.hi);

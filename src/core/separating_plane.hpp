@@ -28,6 +28,7 @@
 #include <cmath>
 
 #include "core/body.hpp"
+#include "core/fast_trig.hpp"
 #include "core/vec.hpp"
 
 namespace ringsim {
@@ -51,7 +52,11 @@ class SupportTrack {
 
  private:
   double theta(double t) const { return rate_ * (t - t0_); }
-  double c_of(double th) const { return alpha_ + rho_ * std::cos(th - phi_); }
+  double c_of(double th) const {
+    double s, c;
+    sin_cos(th - phi_, &s, &c);
+    return alpha_ + rho_ * c;
+  }
   double h_at_theta(double th) const;
   double h_at(double th, double c) const;  // h_at_theta with c = c_of(th) given
   double h_of_c(double c) const;
