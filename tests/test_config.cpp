@@ -68,7 +68,10 @@ void expect_same(const SimParams& a, const SimParams& b) {
   EXPECT_EQ(a.run.max_events, b.run.max_events);
   EXPECT_EQ(a.run.contact_tolerance, b.run.contact_tolerance);
   EXPECT_EQ(a.run.tc_time, b.run.tc_time);
+  EXPECT_EQ(a.run.min_separation_speed, b.run.min_separation_speed);
+  EXPECT_EQ(a.run.sphere_candidates, b.run.sphere_candidates);
   EXPECT_EQ(a.run.cell_size, b.run.cell_size);
+  EXPECT_EQ(a.run.partner_horizon, b.run.partner_horizon);
   EXPECT_EQ(a.run.validate, b.run.validate);
   EXPECT_EQ(a.run.queue, b.run.queue);
 }
@@ -681,7 +684,7 @@ TEST(Config, ScenarioRoundTripWithEscapedStrings) {
 
 TEST(Config, KeyInfoTable) {
   const auto& keys = config_keys();
-  ASSERT_EQ(keys.size(), 61u);
+  ASSERT_EQ(keys.size(), 62u);
   for (const KeyInfo& k : keys) {
     EXPECT_FALSE(k.type.empty()) << k.name;
     EXPECT_FALSE(k.default_value.empty()) << k.name;

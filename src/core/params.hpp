@@ -124,6 +124,10 @@ struct RunParams {
   double min_separation_speed = 1e-6; // floor of a contact's normal separation speed (ContactLaw)
   double cell_size = 0.0;             // neighbour-cell edge; 0 = automatic
   int sphere_candidates = 4;          // hard-sphere gas: collisions kept per body (Simulation::predict_sphere); 0 = off
+  // Pair and capture searches stop at the partner's pending event, where the
+  // partner re-predicts the pair (Simulation::predict); false: at the body's
+  // own horizon only (the earlier scheme, for testing).
+  bool partner_horizon = true;
   bool validate = false;              // check invariants after every event
   QueueKind queue = QueueKind::Fast;
 };

@@ -317,6 +317,15 @@ void Simulation::predict(int i, double t) {
       best.partner_counter = bodies_.counter[j];
     }
   };
+  // A pair's search (and a capture's) need not reach past the partner's
+  // pending event: every event re-predicts the body that holds it, whatever
+  // its kind (an impulse, a cell crossing, a stale event, a capture, a slice),
+  // and that prediction covers the pair from then on. So no contact of the
+  // pair before that time is missed, and the work of searching beyond it is
+  // saved when the partner's trajectory changes there (docs/ARCHITECTURE.md,
+  // "Prediction"). run.partner_horizon = false searches to i's own horizon.
+  const bool partner_horizon = params_.run.partner_horizon;
+  auto pair_limit = [&](int j) { return partner_horizon ? std::min(best.time, events_[j].time) : best.time; };
   // Closed forms at once; searches (pairs with a linker) later, in order of
   // their bounding-sphere entry times, so that an early contact cuts the
   // horizon of the rest before they cost anything.
@@ -341,13 +350,14 @@ void Simulation::predict(int i, double t) {
       return;
     }
     const double enter = predictor_.window_enter(i, j, t, xi);
-    if (enter < best.time) candidates_.push_back({enter, j});
+    if (enter < pair_limit(j)) candidates_.push_back({enter, j});
   });
   std::sort(candidates_.begin(), candidates_.end());
   memo_scratch_.clear();
   for (const auto& [enter, j] : candidates_) {
     if (enter >= best.time) break;
-    consider(j, memo_pair(i, j, t, best.time, xi));
+    const double limit = pair_limit(j);
+    if (enter < limit) consider(j, memo_pair(i, j, t, limit, xi));
   }
   memo_[i].swap(memo_scratch_);
   // Captures: only pairs that could still bond (a free end, a sphere with a
@@ -358,7 +368,9 @@ void Simulation::predict(int i, double t) {
     if (graph_.degree(s) >= bp.sphere_valency || bp.end_valency < 1) continue;
     for (int e = 0; e < 2; ++e) {
       if (graph_.end_bonded(l, e)) continue;
-      const double tc = predictor_.capture(l, e, s, t, best.time, bp.capture_distance);
+      const double limit = pair_limit(j);
+      if (limit <= t) break;
+      const double tc = predictor_.capture(l, e, s, t, limit, bp.capture_distance);
       if (tc < best.time) {
         best.time = tc;
         best.type = EventType::Capture;

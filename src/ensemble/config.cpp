@@ -403,6 +403,9 @@ const std::vector<KeyDesc>& key_table() {
       key<&S::run, &R::sphere_candidates>("run.sphere_candidates", closed(0, 64),
           "hard-sphere gas (no linkers, bonding off): earliest collisions each sphere keeps, so a cell "
           "crossing scans only the 9 newly adjacent cells; 0 = off (every prediction scans all 27)"),
+      key<&S::run, &R::partner_horizon>("run.partner_horizon", any(),
+          "pair and capture searches stop at the partner's pending event, where the partner re-predicts "
+          "the pair (same events, less work); false = search to the body's own horizon (for testing)"),
       key<&S::run, &R::validate>("run.validate", any(),
           "check whole-state invariants after every event (slow; for debugging)"),
       key<&S::run, &R::queue>("run.queue", any(),
