@@ -442,6 +442,20 @@ void Simulation::bump(int i, double t) {
   }
 }
 
+void Simulation::expire_group(int i, double t) {
+  auto expire = [&](int m) {
+    events_[m].time = t;
+    events_[m].type = EventType::None;
+  };
+  if (const int cg = bodies_.cgroup[i]; cg >= 0) {
+    for (int m : cgroups_[cg].members) expire(m);
+  } else if (const int g = bodies_.group[i]; g >= 0) {
+    for (int m : bodies_.clusters[g].members) expire(m);
+  } else {
+    expire(i);
+  }
+}
+
 void Simulation::predict_group(int i, double t) {
   if (const int cg = bodies_.cgroup[i]; cg >= 0) {
     for (int m : cgroups_[cg].members) predict(m, t);
@@ -607,6 +621,9 @@ void Simulation::process_collision(int i, int j, double t) {
   bump(j, t);
   ++stats_.collisions;
   if (termination_ != Termination::Running) return;  // a compliant cluster's integrator failed
+  // j's group is re-predicted right after i's, and its searches cover every
+  // pair with i's group up to i's new events: i's need not search them too.
+  if (params_.run.partner_horizon) expire_group(j, t);
   predict_group(i, t);
   predict_group(j, t);
 }

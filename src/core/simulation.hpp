@@ -172,6 +172,12 @@ class Simulation {
  private:
   void predict(int i, double t);
   void predict_group(int i, double t);  // i and, for a member, its whole cluster
+  // Marks the pending events of i's group (the body, its rigid cluster or its
+  // compliant group) as ending at t, just before the group is re-predicted at
+  // t: other bodies' searches stop there (run.partner_horizon), since the
+  // group's own predictions cover those pairs. The queue keeps the old times
+  // until then.
+  void expire_group(int i, double t);
   // A free body's own event: leaving its cell, or hitting a wall first.
   Event free_body_exit(int i, double t, const Vec3& xi);
   // Replaces *e by i's wall hit (reflective box) if that comes first.
