@@ -534,9 +534,10 @@ void Simulation::touch(int b, double t, bool impulse) {
       rebase_cluster(bodies_.clusters[g], box_, t);
       G.hold_until = t + params_.compliant.burst_time;
     }
-  } else {
-    rebase_cluster(bodies_.clusters[g], box_, t);
   }
+  // A rigid cluster's pose, velocities and inertia at t are pure functions of
+  // its record (core/pose.hpp): nothing to do before the contact geometry;
+  // cluster_impulse re-bases it when an impulse changes its motion.
 }
 
 ContactLaw Simulation::pair_law(int i, int j, double t) {

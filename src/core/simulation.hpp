@@ -230,7 +230,8 @@ class Simulation {
   void process_cell(int i, const Event& ev, double t);
   void apply_impulse(int i, const Vec3& J, const Vec3& arm);
   // Makes body b's state at t current before an impulse or a bond: a free
-  // body advanced, a rigid cluster re-based, a compliant cluster cut (its
+  // body advanced (a rigid cluster needs nothing: cluster_impulse re-bases
+  // it), a compliant cluster cut (its
   // integrator state set from the tracks), a relaxed one woken.
   // An impulse (not a bond) may end a contact burst (compliant.burst_*).
   void touch(int b, double t, bool impulse = true);
