@@ -218,6 +218,21 @@ using LD = long double;
 constexpr double kTwoPiHi = 6.283185307179586232;
 constexpr double kTwoPiLo = 2.4492935982947064e-16;
 
+// std::nearbyint in the default rounding mode (ties to even) without the
+// library call: for |x| < 2^51, x + 1.5 * 2^52 has no fraction bits left, so
+// the sum is rounded to the nearest integer and subtracting the shift is exact.
+double round_nearest(double x) {
+  constexpr double kShift = 0x1.8p52;
+  if (!(std::abs(x) < 0x1p51)) return std::nearbyint(x);
+  return (x + kShift) - kShift;
+}
+
+// Whether the integer-valued j is odd (|j| < 2^53 converts exactly).
+bool is_odd(double j) {
+  if (!(std::abs(j) < 0x1p53)) return false;  // every double this large is even
+  return (static_cast<long long>(j) & 1) != 0;
+}
+
 // 1/I_a - 1/I_b with no cancellation beyond that of I_b - I_a (exact for close moments).
 LD inv_diff(LD Ia, LD Ib) { return (Ib - Ia) / (Ia * Ib); }
 
@@ -528,7 +543,7 @@ double FreeRotation::reduced_argument(double dt, double& j) const {
     j = 0.0;
     return p + rest;
   }
-  j = std::nearbyint((p + rest) / two_k_hi_);
+  j = round_nearest((p + rest) / two_k_hi_);
   // p - j 2K_hi is small, so the fma rounds only once, at the scale of K.
   return std::fma(-j, two_k_hi_, p) + (rest - j * two_k_lo_);
 }
@@ -604,10 +619,9 @@ double FreeRotation::integral_j(double v, const Jacobi& f) const {
 }
 
 Vec3 FreeRotation::momentum_xp(double j, const Jacobi& f) const {
-  // sn and cn change sign with every half period 2K; dn does not. (j is an
-  // integer; j/2 is exact, so it is a whole number iff j is even.)
-  const double half = 0.5 * j;
-  const double sign = std::floor(half) != half ? -1.0 : 1.0;
+  // sn and cn change sign with every half period 2K; dn does not (j is an
+  // integer).
+  const double sign = is_odd(j) ? -1.0 : 1.0;
   const double Lx = sign * amp_a_ * f.cn, Ly = sign * amp_b_ * f.sn, Lz = amp_c_ * f.dn;
   return pole_x_ ? Vec3(Ly, Lz, Lx) : Vec3(Lx, Ly, Lz);
 }
@@ -633,11 +647,13 @@ Mat3 FreeRotation::compose(double psi, const Vec3& l) const {
   const double g1[3] = {l[0] * l[2] * ip, l[1] * l[2] * ip, -p2 * ip};
   const double g2[3] = {-l[1] * ip, l[0] * ip, 0.0};
   Mat3 R;
+#pragma GCC unroll 3
   for (int col = 0; col < 3; ++col) {
     const int k = perm_[col];
     const double sg = perm_sign_[col];
     const double x1 = sg * g1[k], x2 = sg * g2[k], x3 = sg * l[k];
     const double e = c * x1 - s * x2, f = s * x1 + c * x2;  // (Rz G P^T)(0..1, col)
+#pragma GCC unroll 3
     for (int row = 0; row < 3; ++row) R(row, col) = A_(row, 0) * e + A_(row, 1) * f + A_(row, 2) * x3;
   }
   return R;
@@ -697,7 +713,7 @@ Mat3 FreeRotation::orientation_impl(double dt, bool series) const {
     // lambda is tiny, as for a nearly symmetric top.)
     const double q = j * psi_half_hi_;
     const double q_err = std::fma(j, psi_half_hi_, -q);
-    const double turns = std::nearbyint(q / kTwoPiHi);
+    const double turns = round_nearest(q / kTwoPiHi);
     const double secular = std::fma(-turns, kTwoPiHi, q) + (q_err + j * psi_half_lo_ - turns * kTwoPiLo);
     const double t_local = std::fma(-j, t_half_hi_, dt) - j * t_half_lo_;
     psi = secular + rate_lin_ * t_local + coef_j_ * J_rel;
