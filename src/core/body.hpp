@@ -21,6 +21,7 @@
 #include <limits>
 #include <vector>
 
+#include "core/axis_rotation.hpp"
 #include "core/free_rotation.hpp"
 #include "core/vec.hpp"
 
@@ -154,10 +155,13 @@ struct BodyStore {
   // A free body's axis at its last queried time, memoized on the exact
   // inputs of the rotation (record axis, precession, elapsed time): the
   // steps of one search ask for the same body at the same time several times
-  // (distance, supports, planes). A pure memo, so results are bit-identical.
+  // (distance, supports, planes), and the record's split of Rodrigues'
+  // formula (AxisRotation) serves every elapsed time until the record
+  // changes. A pure memo: the same bits as axis_at.
   struct AxisMemo {
     Vec3 axis, precession, result;
     double dt = std::numeric_limits<double>::quiet_NaN();
+    AxisRotation turn;  // of (axis, precession), while those are unchanged
   };
   mutable std::vector<AxisMemo> axis_memo;  // may be empty (then no memo)
 

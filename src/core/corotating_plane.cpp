@@ -23,6 +23,8 @@ CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const K
     const Vec3 ux = axis_at(x, t0);
     hx_ = sx.half_length * std::abs(n0.dot(ux)) + sx.radius * n0.cross(ux).norm();
   }
+  nx_rot_ = AxisRotation::of(n0_, wx_);
+  uy_rot_ = AxisRotation::of(uy0_, wy_);
   wx_norm_ = wx_.norm();
   wy_norm_ = wy_.norm();
   dv_norm_ = dv_.norm();
@@ -30,7 +32,7 @@ CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const K
 
 CorotatingPlane::State CorotatingPlane::state(double t) const {
   const double tau = t - t0_;
-  const Vec3 n = rotate_about(n0_, wx_, tau);
+  const Vec3 n = nx_rot_.at(tau);
   const Vec3 dx = dx0_ + dv_ * tau;
   const Vec3 ndot = wx_.cross(n);
   State st;
@@ -44,7 +46,7 @@ CorotatingPlane::State CorotatingPlane::state(double t) const {
     st.rate = lin_rate;
     return st;
   }
-  const Vec3 u = rotate_about(uy0_, wy_, tau);
+  const Vec3 u = uy_rot_.at(tau);
   st.c = n.dot(u);
   st.g = n.cross(u).norm();
   const double cdot = ndot.dot(u) + n.dot(wy_.cross(u));

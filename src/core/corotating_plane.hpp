@@ -32,6 +32,7 @@
 // support; |c'| grows to at most |W| + (a_x + a_y) h over a step.
 
 #include "core/body.hpp"
+#include "core/motion.hpp"
 #include "core/vec.hpp"
 
 namespace ringsim {
@@ -67,6 +68,7 @@ class CorotatingPlane {
   State state(double t) const;
 
   Vec3 n0_, dx0_, dv_, wx_, wy_, uy0_;
+  AxisRotation nx_rot_, uy_rot_;  // n(t) and Y's axis(t): n0_ about wx_, uy0_ about wy_
   double t0_;
   double hx_;               // X's (constant) support along n
   double ay_, ry_;          // Y's half length and radius (sphere: 0, radius)

@@ -7,14 +7,10 @@
 namespace ringsim {
 
 Vec3 rotate_about(const Vec3& u, const Vec3& w, double dt) {
-  const double rate = w.norm();
-  const double angle = rate * dt;
-  if (angle == 0.0) return u;
-  const Vec3 k = w / rate;
-  double s, c;
-  sin_cos(angle, &s, &c);
-  // Rodrigues: u cos + (k x u) sin + k (k.u)(1 - cos)
-  return u * c + k.cross(u) * s + k * (k.dot(u) * (1.0 - c));
+  // Rodrigues: u cos + (k x u) sin + k (k.u)(1 - cos), k = w/|w|, evaluated
+  // as AxisRotation does, so that one-off and repeated evaluations agree to
+  // the last bit.
+  return AxisRotation::of(u, w).at(dt);
 }
 
 void advance(Kinematics& k, double t) {

@@ -7,6 +7,7 @@
 // Mechanics, section 33). The rotation is therefore exact: Rodrigues' formula
 // applied to the stored axis, no integration error.
 
+#include "core/axis_rotation.hpp"
 #include "core/body.hpp"
 #include "core/geometry.hpp"
 
@@ -14,6 +15,7 @@ namespace ringsim {
 
 // Rotate unit vector u about the axis of w by angle |w| * dt (Rodrigues).
 Vec3 rotate_about(const Vec3& u, const Vec3& w, double dt);
+
 
 inline Vec3 position_at(const Kinematics& k, double t) { return k.x + k.v * (t - k.t); }
 inline Vec3 axis_at(const Kinematics& k, double t) { return rotate_about(k.axis, k.precession, t - k.t); }

@@ -48,11 +48,15 @@ inline Vec3 body_axis(const BodyStore& b, int i, double t) {
     if (static_cast<std::size_t>(i) >= b.axis_memo.size()) return axis_at(k, t);
     BodyStore::AxisMemo& m = b.axis_memo[static_cast<std::size_t>(i)];
     const double dt = t - k.t;
-    if (dt != m.dt || k.axis != m.axis || k.precession != m.precession) {
-      m.result = rotate_about(k.axis, k.precession, dt);
-      m.dt = dt;
+    if (k.axis != m.axis || k.precession != m.precession) {
+      m.turn = AxisRotation::of(k.axis, k.precession);
       m.axis = k.axis;
       m.precession = k.precession;
+      m.dt = std::numeric_limits<double>::quiet_NaN();
+    }
+    if (dt != m.dt) {
+      m.result = m.turn.at(dt);
+      m.dt = dt;
     }
     return m.result;
   }
