@@ -31,8 +31,8 @@
 // derivatives are bounded by a), which moves the plane's normal and each
 // support; |c'| grows to at most |W| + (a_x + a_y) h over a step.
 
+#include "core/axis_rotation.hpp"
 #include "core/body.hpp"
-#include "core/motion.hpp"
 #include "core/vec.hpp"
 
 namespace ringsim {

@@ -2,8 +2,6 @@
 
 #include <cmath>
 
-#include "core/fast_trig.hpp"
-
 namespace ringsim {
 
 Vec3 rotate_about(const Vec3& u, const Vec3& w, double dt) {

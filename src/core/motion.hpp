@@ -16,7 +16,6 @@ namespace ringsim {
 // Rotate unit vector u about the axis of w by angle |w| * dt (Rodrigues).
 Vec3 rotate_about(const Vec3& u, const Vec3& w, double dt);
 
-
 inline Vec3 position_at(const Kinematics& k, double t) { return k.x + k.v * (t - k.t); }
 inline Vec3 axis_at(const Kinematics& k, double t) { return rotate_about(k.axis, k.precession, t - k.t); }
 inline Vec3 omega_at(const Kinematics& k, double t) { return k.precession + k.spin * axis_at(k, t); }
