@@ -159,9 +159,9 @@ struct BodyStore {
   // formula (AxisRotation) serves every elapsed time until the record
   // changes. A pure memo: the same bits as axis_at.
   struct AxisMemo {
-    Vec3 axis, precession, result;
+    AxisRotation turn;  // of (turn.u = record axis, precession)
+    Vec3 precession = Vec3::Zero(), result = Vec3::Zero();
     double dt = std::numeric_limits<double>::quiet_NaN();
-    AxisRotation turn;  // of (axis, precession), while those are unchanged
   };
   mutable std::vector<AxisMemo> axis_memo;  // may be empty (then no memo)
 

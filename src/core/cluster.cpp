@@ -65,26 +65,29 @@ Part part_of(const BodyStore& b, int i, double t) {
 
 }  // namespace
 
-void rebase_cluster(Cluster& c, const Box& box, double t) {
-  if (t == c.t) return;
+namespace {
+// The cluster's record restarted at t with angular momentum L (world): its
+// centre and orientation at t from the old record, a new FreeRotation.
+void restart_cluster(Cluster& c, const Box& box, double t, const Vec3& L) {
   const Mat3 R = c.orientation_at(t);
   c.x = wrap_into(c.x + c.v * (t - c.t), box);
-  c.rot = FreeRotation(c.moments, R, c.rot.angular_momentum());
+  c.rot = FreeRotation(c.moments, R, L);
   c.t = t;
   c.cache_t = t;
   c.cache_R = R;
 }
+}  // namespace
+
+void rebase_cluster(Cluster& c, const Box& box, double t) {
+  if (t == c.t) return;
+  restart_cluster(c, box, t, c.rot.angular_momentum());
+}
 
 void cluster_impulse(Cluster& c, const Box& box, double t, const Vec3& J, const Vec3& arm) {
-  // Re-based at t and given the new momenta in one step: one FreeRotation
+  // Re-based and given the new angular momentum in one step: one FreeRotation
   // (its construction, ~2 us, is the costly part of an impulse on a cluster).
-  const Mat3 R = c.orientation_at(t);
-  c.x = wrap_into(c.x + c.v * (t - c.t), box);
+  restart_cluster(c, box, t, c.rot.angular_momentum() + arm.cross(J));
   c.v += J / c.mass;
-  c.rot = FreeRotation(c.moments, R, c.rot.angular_momentum() + arm.cross(J));
-  c.t = t;
-  c.cache_t = t;
-  c.cache_R = R;
   c.max_rate = c.rot.max_rate();
 }
 

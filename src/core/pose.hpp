@@ -48,9 +48,8 @@ inline Vec3 body_axis(const BodyStore& b, int i, double t) {
     if (static_cast<std::size_t>(i) >= b.axis_memo.size()) return axis_at(k, t);
     BodyStore::AxisMemo& m = b.axis_memo[static_cast<std::size_t>(i)];
     const double dt = t - k.t;
-    if (k.axis != m.axis || k.precession != m.precession) {
+    if (k.axis != m.turn.u || k.precession != m.precession) {
       m.turn = AxisRotation::of(k.axis, k.precession);
-      m.axis = k.axis;
       m.precession = k.precession;
       m.dt = std::numeric_limits<double>::quiet_NaN();
     }

@@ -366,11 +366,10 @@ void Simulation::predict(int i, double t) {
   for (int j : capture_partners_) {
     const int l = sphere_i ? j : i, s = sphere_i ? i : j;
     if (graph_.degree(s) >= bp.sphere_valency || bp.end_valency < 1) continue;
+    if (pair_limit(j) <= t) continue;  // j is re-predicted at t and covers the pair
     for (int e = 0; e < 2; ++e) {
       if (graph_.end_bonded(l, e)) continue;
-      const double limit = pair_limit(j);
-      if (limit <= t) break;
-      const double tc = predictor_.capture(l, e, s, t, limit, bp.capture_distance);
+      const double tc = predictor_.capture(l, e, s, t, pair_limit(j), bp.capture_distance);
       if (tc < best.time) {
         best.time = tc;
         best.type = EventType::Capture;
@@ -421,52 +420,23 @@ double Simulation::memo_pair(int i, int j, double t, double limit, const Vec3& x
 }
 
 void Simulation::bump(int i, double t) {
-  if (const int cg = bodies_.cgroup[i]; cg >= 0) {
-    // A new slice from the changed state (once per event), then every member.
-    if (cgroups_[cg].pending && !begin_slice(cg, t)) return;
-    for (int m : cgroups_[cg].members) {
-      ++bodies_.counter[m];
-      bodies_.last_collision[m] = t;
-    }
-    return;
-  }
-  const int g = bodies_.group[i];
-  if (g < 0) {
-    ++bodies_.counter[i];
-    bodies_.last_collision[i] = t;
-    return;
-  }
-  for (int m : bodies_.clusters[g].members) {
+  // A compliant group: a new slice from the changed state (once per event) first.
+  if (const int cg = bodies_.cgroup[i]; cg >= 0 && cgroups_[cg].pending && !begin_slice(cg, t)) return;
+  for_each_in_group(i, [&](int m) {
     ++bodies_.counter[m];
     bodies_.last_collision[m] = t;
-  }
+  });
 }
 
 void Simulation::expire_group(int i, double t) {
-  auto expire = [&](int m) {
+  for_each_in_group(i, [&](int m) {
     events_[m].time = t;
     events_[m].type = EventType::None;
-  };
-  if (const int cg = bodies_.cgroup[i]; cg >= 0) {
-    for (int m : cgroups_[cg].members) expire(m);
-  } else if (const int g = bodies_.group[i]; g >= 0) {
-    for (int m : bodies_.clusters[g].members) expire(m);
-  } else {
-    expire(i);
-  }
+  });
 }
 
 void Simulation::predict_group(int i, double t) {
-  if (const int cg = bodies_.cgroup[i]; cg >= 0) {
-    for (int m : cgroups_[cg].members) predict(m, t);
-    return;
-  }
-  const int g = bodies_.group[i];
-  if (g < 0) {
-    predict(i, t);
-    return;
-  }
-  for (int m : bodies_.clusters[g].members) predict(m, t);
+  for_each_in_group(i, [&](int m) { predict(m, t); });
 }
 
 void Simulation::apply_impulse(int i, const Vec3& J, const Vec3& arm) {

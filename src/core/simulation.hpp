@@ -172,6 +172,18 @@ class Simulation {
  private:
   void predict(int i, double t);
   void predict_group(int i, double t);  // i and, for a member, its whole cluster
+  // f(m) for every body that moves with i: its compliant group's members, its
+  // rigid cluster's members, or i alone.
+  template <class F>
+  void for_each_in_group(int i, F&& f) {
+    if (const int cg = bodies_.cgroup[i]; cg >= 0) {
+      for (int m : cgroups_[cg].members) f(m);
+    } else if (const int g = bodies_.group[i]; g >= 0) {
+      for (int m : bodies_.clusters[g].members) f(m);
+    } else {
+      f(i);
+    }
+  }
   // Marks the pending events of i's group (the body, its rigid cluster or its
   // compliant group) as ending at t, just before the group is re-predicted at
   // t: other bodies' searches stop there (run.partner_horizon), since the
