@@ -10,6 +10,8 @@
 #include <sunmatrix/sunmatrix_dense.h>
 #include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
 
+#include "core/serial_vector_ops.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -293,6 +295,8 @@ struct ClusterIntegrator::Impl {
     if (SUNContext_Create(nullptr, &c) != 0 || c == nullptr) throw SundialsError("SUNContext_Create failed");
     ctx.reset(c);
     y.reset(check_ptr(N_VNew_Serial(n, ctx.get()), "N_VNew_Serial"));
+    // Before any solver clones y, so that its work vectors inherit them.
+    use_one_pass_operations(y.get());
     pack();
 
     switch (options.method) {
