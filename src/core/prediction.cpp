@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstdio>
 
 #include "core/motion.hpp"
 #include "core/pose.hpp"
@@ -85,6 +86,25 @@ double Predictor::sphere_sphere(int i, int j, double t, const Vec3& xi) const {
   const Kinematics &ki = b_.kin[i], &kj = b_.kin[j];
   const Vec3 dx = box_.min_image(position_at(kj, t) - xi);
   return t + sphere_touch_time(dx, kj.v - ki.v, b_.sp(i).radius + b_.sp(j).radius);
+}
+
+void Predictor::fail(const char* what, int i, int j, double t, double reached, double gap, double bound) {
+  failed_ = true;
+  if (!failure_.empty()) return;  // the first failure is the one to report
+  auto body = [&](int k) {
+    std::string d = "body " + std::to_string(k) + " (" + (b_.shape[k] == Shape::Sphere ? "sphere" : "linker");
+    if (b_.cgroup[k] >= 0) d += ", compliant group " + std::to_string(b_.cgroup[k]);
+    else if (b_.group[k] >= 0) d += ", rigid cluster " + std::to_string(b_.group[k]);
+    return d + ")";
+  };
+  char buf[320];
+  std::snprintf(buf, sizeof buf, " from t = %.17g to t = %.17g (%.3g), rate bound %.3g, smallest step %.3g", t,
+                reached, reached - t, bound, bound > 0.0 ? min_step(bound) : 0.0);
+  failure_ = std::string(what) + " search of " + body(i) + (j >= 0 ? " and " + body(j) : std::string()) + buf;
+  if (gap >= 0.0) {
+    std::snprintf(buf, sizeof buf, ", gap there %.3g (contact tolerance %.3g)", gap, delta_);
+    failure_ += buf;
+  }
 }
 
 double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
@@ -253,7 +273,7 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
     s = std::max({s + min_step(bound), swept_to,
                   advance_plane(plane, s, end, target, stop, bound, &plane_evaluations_, kPlaneBudget)});
   }
-  failed_ = true;
+  fail("pair", i, j, t, s, contact_geometry(i, j, s).sep.distance, bound);
   return kNever;
 }
 
@@ -496,7 +516,7 @@ WallHit Predictor::wall(int i, double t, double limit) {
           }
           sc = std::max(sc + step_floor,
                         advance_plane(plane, sc, end, 0.5 * gap, 0.75 * gap, bound, &plane_evaluations_, 1 << 30));
-          if (step + 1 == kMaxSteps) failed_ = true;
+          if (step + 1 == kMaxSteps) fail("wall", i, -1, t, sc, g, bound);
         }
       }
     }

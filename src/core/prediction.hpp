@@ -31,6 +31,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <string>
 
 #include "core/body.hpp"
 #include "core/geometry.hpp"
@@ -165,6 +166,9 @@ class Predictor {
   const SearchCounts& search_counts() const { return counts_; }
   long plane_evaluations() const { return plane_evaluations_; }
   bool failed() const { return failed_; }
+  // After failed(): which search, of which bodies, from when to where, at
+  // what gap and rate bound (for the error message of the replicate).
+  const std::string& failure() const { return failure_; }
   // After pair() found no contact before its limit: no contact before this
   // time either (>= the limit; infinity when the bounding spheres never meet
   // again, or the pair never touches). A search stops at the first step that
@@ -218,6 +222,11 @@ class Predictor {
   SearchCounts counts_;
   long plane_evaluations_ = 0;
   bool failed_ = false;
+  std::string failure_;
+  // Marks the search as failed and says what it was: `what` names the search
+  // ("pair", "cluster pair", "wall", "cluster wall", "cell exit", "capture");
+  // j < 0 when there is no partner; gap < 0 when not known.
+  void fail(const char* what, int i, int j, double t, double reached, double gap, double bound);
   double proven_until_ = 0.0;
 };
 

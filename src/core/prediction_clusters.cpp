@@ -149,7 +149,7 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
     }
     s += advance_by;
   }
-  failed_ = true;
+  fail("cluster pair", i, j, t, s, contact_geometry(i, j, s).sep.distance, bound);
   return kNever;
 }
 
@@ -174,7 +174,7 @@ WallHit Predictor::wall_generic(int i, double t, double limit) {
       const double step_floor = min_step(bound);
       for (int step = 0; sc < end; ++step) {
         if (step == kMaxSteps) {
-          failed_ = true;
+          fail("cluster wall", i, -1, t, sc, -1.0, bound);
           break;
         }
         ++ca_iterations_;
@@ -246,7 +246,7 @@ double Predictor::leave_cell(int i, double t, double limit, const Vec3& lo, doub
     }
     s += advance_by;
   }
-  if (s < limit) failed_ = true;
+  if (s < limit) fail("cell exit", i, -1, t, s, -1.0, bound);
   return kNever;
 }
 
@@ -281,7 +281,7 @@ double Predictor::capture(int l, int end, int s, double t, double limit, double 
   // 2 delta, a hysteresis that keeps a failed capture from firing again).
   for (int step = 0; g <= (step == 0 ? delta_ : 2.0 * delta_); ++step) {
     if (step == kMaxSteps) {
-      failed_ = true;
+      fail("capture (leaving the shell)", l, s, t, x, g, bound);
       return kNever;
     }
     x += std::max((2.0 * delta_ - g) / bound, floor_step);
@@ -324,7 +324,7 @@ double Predictor::capture(int l, int end, int s, double t, double limit, double 
     }
     x += advance_by;
   }
-  failed_ = true;
+  fail("capture", l, s, t, x, capture_gap(l, end, s, x, rc), bound);
   return kNever;
 }
 

@@ -721,7 +721,7 @@ bool Simulation::step() {
   if (predictor_.failed()) {
     termination_ = Termination::Error;
     error_ = "conservative advancement did not converge (more than " + std::to_string(Predictor::kMaxSteps) +
-             " steps in one search) near t = " + std::to_string(now_);
+             " steps in one search) near t = " + std::to_string(now_) + ": " + predictor_.failure();
     return false;
   }
   if (validator_) validator_->check(*this, now_);
