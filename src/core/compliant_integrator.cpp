@@ -10,8 +10,6 @@
 #include <sunmatrix/sunmatrix_dense.h>
 #include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
 
-#include "core/serial_vector_ops.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -20,6 +18,8 @@
 #include <limits>
 #include <type_traits>
 #include <vector>
+
+#include "core/serial_vector_ops.hpp"
 
 namespace ringsim {
 namespace {

@@ -210,6 +210,10 @@ class Predictor {
     double value[4];
     int count = 0, best = 0, feature = -1;
   };
+  // Marks the search as failed and says what it was: `what` names the search
+  // ("pair", "cluster pair", "wall", "cluster wall", "cell exit", "capture");
+  // j < 0 when there is no partner; gap < 0 when not known.
+  void fail(const char* what, int i, int j, double t, double reached, double gap, double bound);
   ContactFrame on_axis_planes(int i, int j, double t, const ContactGeometry& g, ContactFrame frame) const;
   RankedNormals rank_normals(int i, int j, double t, const ContactGeometry& g) const;
   double plane_value(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const;
@@ -223,10 +227,6 @@ class Predictor {
   long plane_evaluations_ = 0;
   bool failed_ = false;
   std::string failure_;
-  // Marks the search as failed and says what it was: `what` names the search
-  // ("pair", "cluster pair", "wall", "cluster wall", "cell exit", "capture");
-  // j < 0 when there is no partner; gap < 0 when not known.
-  void fail(const char* what, int i, int j, double t, double reached, double gap, double bound);
   double proven_until_ = 0.0;
 };
 
