@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <ostream>
+#include <random>
 #include <vector>
 
 #include "compliant_chain.hpp"
@@ -142,6 +143,34 @@ TEST(CompliantField, KinematicsRoundTrip) {
   EXPECT_LT((r.axis() - b.axis()).norm(), 1e-15);
   EXPECT_LT((r.omega - b.omega).norm(), 1e-14);
   EXPECT_EQ(kinematics_from(b, 2.5).t, 2.5);
+}
+
+// A linker's orientation quaternion is built from its axis whenever it joins
+// a compliant group (make_compliant_body, member_state). Near the axis -z the
+// construction must not lose accuracy: with Eigen's FromTwoVectors, 1 + z.u
+// cancels and the axis came back up to 3e-4 too long and 3e-6 off in
+// direction; a rigid cluster formed from it kept the wrong length for good,
+// and the feature solver could no longer certify a side contact (a
+// Scenario 5 replicate gave up a search at t = 4593, docs/ARCHITECTURE.md).
+TEST(CompliantField, AxisQuaternionNearMinusZ) {
+  SimParams p;
+  const Species sp = make_species(Shape::Linker, p);
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  double worst_norm = 0.0, worst_dir = 0.0;
+  for (double eps : {0.3, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-9, 0.0}) {
+    for (double zsign : {-1.0, 1.0}) {
+      for (int k = 0; k < 2000; ++k) {
+        const Vec3 u = Vec3(eps * U(rng), eps * U(rng), zsign).normalized();
+        const Vec3 a = make_compliant_body(sp, Vec3::Zero(), Vec3::Zero(), u, Vec3::Zero()).axis();
+        worst_norm = std::max(worst_norm, std::abs(a.norm() - 1.0));
+        worst_dir = std::max(worst_dir, (a - u).norm());
+      }
+    }
+  }
+  // A few ulps: the quaternion's normalisation and its rotation of z.
+  EXPECT_LT(worst_norm, 1e-15);
+  EXPECT_LT(worst_dir, 1e-15);
 }
 
 // ---- analytic damped oscillators ----------------------------------------------------------

@@ -463,6 +463,40 @@ TEST(FclOracle, Cylinders) {
   EXPECT_FALSE(fcl_cylinders_overlap(a, b, 0.05));
 }
 
+// FCL's cylinder frame is built from the axis (fcl_pose). Eigen's
+// FromTwoVectors lost accuracy for axes near -z (a rotation matrix up to 3e-4
+// off orthogonal), so FCL measured a deformed cylinder there. The certified
+// feature solver is the reference; the same solid with the axis flipped
+// (a cylinder is symmetric under u -> -u) must give the same answer.
+TEST(FclOracle, AxisNearMinusZ) {
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  int checked = 0;
+  for (double eps : {1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7}) {
+    for (int k = 0; k < 40; ++k) {
+      const Vec3 u = Vec3(eps * U(rng), eps * U(rng), -1.0).normalized();
+      const Cylinder a{Vec3::Zero(), u, 1.0, 2.0};
+      // b beside a's side or beyond its face, 0.05-0.5 away.
+      const Vec3 dir = k % 2 ? Vec3(U(rng), U(rng), 0.2 * U(rng)).normalized() : Vec3(0.2 * U(rng), 0.2 * U(rng), -1.0).normalized();
+      const Cylinder b{(3.3 + 0.5 * std::abs(U(rng))) * dir, random_unit(rng), 1.0, 2.0};
+      double gap = 1.0;
+      const Separation f = cylinder_cylinder_features(a, b, &gap);
+      if (f.distance < 0.05) continue;
+      ASSERT_LE(gap, 1e-11) << eps << " " << k;
+      ++checked;
+      const Cylinder flipped{a.center, -u, 1.0, 2.0};
+      EXPECT_NEAR(cylinder_cylinder_fcl(a, b, 1e-12).distance, f.distance, 3e-8) << eps << " " << k;
+      EXPECT_NEAR(cylinder_cylinder_fcl(flipped, b, 1e-12).distance, f.distance, 3e-8) << eps << " " << k;
+      // Touching within 1e-6: the oracle sees an overlap once b is moved
+      // 2e-6 closer along the normal, and none at its place.
+      EXPECT_FALSE(fcl_cylinders_overlap(a, b, 0.0)) << eps << " " << k;
+      const Cylinder closer{b.center - (f.distance + 2e-6) * f.normal, b.axis, 1.0, 2.0};
+      EXPECT_TRUE(fcl_cylinders_overlap(a, closer, 0.0)) << eps << " " << k;
+    }
+  }
+  EXPECT_GT(checked, 150);
+}
+
 TEST(FclOracle, SphereCylinder) {
   const Cylinder c = unit_z_cylinder();
   EXPECT_TRUE(fcl_sphere_cylinder_overlap(Vec3(1.8, 0, 0), 1.0, c, 0.0));

@@ -120,7 +120,7 @@ CompliantBody make_compliant_body(const Species& sp, const Vec3& x, const Vec3& 
   b.half_length = sp.half_length;
   b.x = x;
   b.v = v;
-  b.q = sp.shape == Shape::Linker ? Quat::FromTwoVectors(Vec3::UnitZ(), axis.normalized()) : Quat::Identity();
+  b.q = sp.shape == Shape::Linker ? orientation_from_axis(axis.normalized()) : Quat::Identity();
   b.omega = omega;
   return b;
 }

@@ -72,7 +72,7 @@ CompliantBody member_state(const BodyStore& b, int i, double t, const CompliantB
     return s;
   }
   const Vec3 u = track_axis(tr, t);
-  s.q = Quat::FromTwoVectors(Vec3::UnitZ(), u);
+  s.q = orientation_from_axis(u);
   s.omega = track_omega(tr, t);
   return s;
 }

@@ -321,7 +321,7 @@ Separation to_separation(const Candidate& c) { return {c.d, c.pa, c.pb, c.n}; }
 // FCL cylinders are centred at the origin along local z; map z to the axis.
 fcl::Transform3d fcl_pose(const Vec3& center, const Vec3& axis) {
   fcl::Transform3d tf = fcl::Transform3d::Identity();
-  tf.linear() = Eigen::Quaterniond::FromTwoVectors(Vec3::UnitZ(), axis).toRotationMatrix();
+  tf.linear() = orientation_from_axis(axis).toRotationMatrix();
   tf.translation() = center;
   return tf;
 }

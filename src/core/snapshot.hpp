@@ -40,10 +40,7 @@ struct Snapshot {
   std::string comment;                       // free text (scenario, seed), no newlines
 };
 
-// The rotation that maps the z axis onto the unit vector `axis` (OVITO's
-// particle Orientation for a cylinder whose rest axis is z). Closed form,
-// well conditioned for every axis including -z (see snapshot.cpp).
-Quat orientation_from_axis(const Vec3& axis);
+// (orientation_from_axis, core/vec.hpp, gives the Orientation column.)
 
 // Extended XYZ, one frame. Throws std::invalid_argument when `s` breaks the
 // invariants above (naming the body, bond or field).
