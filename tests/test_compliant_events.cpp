@@ -237,6 +237,33 @@ TEST(CompliantChain, ContactBurstEndsInRigidMotionWithoutOverlapOrEnergyGain) {
               (long)sim.stats().bursts, (long)sim.stats().relaxed, (long)sim.stats().woken);
 }
 
+TEST(CompliantChain, BurstKeepsUnitAxesNearMinusZ) {
+  // The wall burst above turned to z, the linker's axis 1e-3 from -z. A
+  // contact cuts the group's slice and sets its state from the members'
+  // tracks (member_state), whose quaternion is built from the axis; the burst
+  // then makes the pair rigid from that state. Building the quaternion once
+  // lost accuracy near -z (CompliantField.AxisQuaternionNearMinusZ), and the
+  // rigid cluster kept the wrong axis length for good: the validator checks
+  // every linker axis after every event.
+  SimParams p = compliant_params();
+  p.compliant.burst_contacts = 3;
+  p.run.t_max = 20.0;
+  const double g = 0.05;
+  const Vec3 v(0.0, 0.0, -1.0);
+  const Vec3 u = Vec3(1e-3, -4e-4, -1.0).normalized();
+  const Vec3 sphere(20, 20, 2.0);
+  std::vector<Init> init = {{Shape::Sphere, sphere, v, Vec3::UnitZ(), Vec3::Zero()},
+                            {Shape::Linker, sphere - (1 + g + 2) * u, v, u, Vec3::Zero()}};
+  Simulation sim(p, make_bodies(p, init));
+  ASSERT_EQ(sim.stats().bonds, 1);
+  Validator val(sim);
+  sim.set_validator(&val);
+  EXPECT_NE(sim.run(), Termination::Error) << sim.error();
+  EXPECT_GE(sim.stats().bursts, 1);
+  EXPECT_EQ(val.report().overlaps, 0) << "first overlap at t = " << val.report().first_overlap_time;
+  EXPECT_LT(val.report().max_axis_error, 1e-14);
+}
+
 TEST(CompliantScenario, ValidationReplicateHasNoOverlapsAndIsDeterministic) {
   const SimParams p = test::scenario5_scene(25.0);  // Scenario 4 + compliant bonds
   auto once = [&](bool validate) {

@@ -124,6 +124,10 @@ void Validator::check(const Simulation& sim, double t) {
   }
   const double de = (now.energy - initial_.energy) / std::max(initial_.energy, 1e-300);
   report_.max_energy_error = std::max(report_.max_energy_error, elastic_ ? std::abs(de) : std::max(0.0, de));
+  const BodyStore& b = sim.bodies();
+  for (int i = 0; i < b.size(); ++i)
+    if (b.shape[i] == Shape::Linker)
+      report_.max_axis_error = std::max(report_.max_axis_error, std::abs(body_axis(b, i, t).norm() - 1.0));
 }
 
 }  // namespace ringsim

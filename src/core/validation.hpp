@@ -13,6 +13,9 @@
 //  - energy (only meaningful when every restitution is 1, contacts are
 //    smooth and bonding is off): |E - E0| / E0; otherwise the largest
 //    relative *increase* (a rigid bond is a perfectly inelastic merge).
+//  - axis length: the largest | |u| - 1 | of a linker's axis (the geometry
+//    takes every axis as a unit vector; a rigid cluster keeps its members'
+//    axes for good, so an error here would persist).
 
 #include <cstdint>
 
@@ -28,6 +31,7 @@ struct ValidationReport {
   double max_momentum_error = 0.0;
   double max_angular_momentum_error = 0.0;
   double max_energy_error = 0.0;      // elastic: |dE|/E0; inelastic: max(0, dE)/E0
+  double max_axis_error = 0.0;        // max over checks and linkers of | |u| - 1 |
   double first_overlap_time = -1.0;
 };
 

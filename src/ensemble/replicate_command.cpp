@@ -160,6 +160,7 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
                        {"max_momentum_error", r.max_momentum_error},
                        {"max_angular_momentum_error", r.max_angular_momentum_error},
                        {"max_energy_error", r.max_energy_error},
+                       {"max_axis_error", r.max_axis_error},
                        {"energy_conserving", validator->energy_conserving()}};
   }
   return j;
