@@ -143,13 +143,17 @@ ContactGeometry Predictor::bound_geometry(int i, int j, double t, double far) co
     g.sep.point_a = g.center_a + si.radius * g.sep.normal;
     g.sep.point_b = g.center_b - sj.radius * g.sep.normal;
   } else if (a == Shape::Sphere) {
-    g.sep = geom::sphere_cylinder(g.center_a, si.radius, geom::Cylinder{g.center_b, body_axis(b_, j, t), sj.radius, sj.half_length});
+    g.axis_b = body_axis(b_, j, t);
+    g.sep = geom::sphere_cylinder(g.center_a, si.radius, geom::Cylinder{g.center_b, g.axis_b, sj.radius, sj.half_length});
   } else if (b == Shape::Sphere) {
-    geom::Separation s = geom::sphere_cylinder(g.center_b, sj.radius, geom::Cylinder{g.center_a, body_axis(b_, i, t), si.radius, si.half_length});
+    g.axis_a = body_axis(b_, i, t);
+    geom::Separation s = geom::sphere_cylinder(g.center_b, sj.radius, geom::Cylinder{g.center_a, g.axis_a, si.radius, si.half_length});
     g.sep = geom::Separation{s.distance, s.point_b, s.point_a, -s.normal};
   } else {
-    const geom::Cylinder ca{g.center_a, body_axis(b_, i, t), si.radius, si.half_length};
-    const geom::Cylinder cb{g.center_b, body_axis(b_, j, t), sj.radius, sj.half_length};
+    g.axis_a = body_axis(b_, i, t);
+    g.axis_b = body_axis(b_, j, t);
+    const geom::Cylinder ca{g.center_a, g.axis_a, si.radius, si.half_length};
+    const geom::Cylinder cb{g.center_b, g.axis_b, sj.radius, sj.half_length};
     if (far < kNever) {
       // Each cylinder lies inside its capsule, so the capsules' distance is a
       // lower bound of the cylinders'; far from contact it is good enough to
@@ -225,7 +229,7 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
     double swept_to = s;
     {
       const Vec3& n = g.sep.normal;
-      const SweptSupport sa(b_, i, s, n, g.center_a, g.center_a), sb(b_, j, s, -n, g.center_b, g.center_b);
+      const SweptSupport sa(b_, i, s, n, g.center_a, g.center_a, g.axis_a), sb(b_, j, s, -n, g.center_b, g.center_b, g.axis_b);
       const double gap0 = n.dot(g.center_b - g.center_a), rate = n.dot(dv);
       auto lower = [&](double tau) { return gap0 + rate * tau - sa.at(tau) - sb.at(tau); };
       swept_to = s + concave_reach(lower, target, std::max((d - target) / bound, min_step(bound)), end - s, &plane_evaluations_);
@@ -233,7 +237,7 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
     // Two linkers side to side: the plane normal to both axes has no kink
     // (crossed_axes.hpp) and converges like Newton's method.
     if (si.shape == Shape::Linker && sj.shape == Shape::Linker) {
-      const CrossedAxesPlane xp(axis_motion(b_, i, s, own_motion(b_, i, s)), axis_motion(b_, j, s, own_motion(b_, j, s)),
+      const CrossedAxesPlane xp(axis_motion(b_, i, g.axis_a, own_motion(b_, i, s)), axis_motion(b_, j, g.axis_b, own_motion(b_, j, s)),
                                 g.center_b - g.center_a);
       if (xp.usable() && xp.value() > stop) {
         const double h = xp.step(target, end - s);
@@ -277,14 +281,14 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
   return kNever;
 }
 
-double Predictor::plane_value(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const {
-  // The plane's value at t only: supports of the current poses, no tracks.
-  auto support = [&](int b, const Vec3& center, const Vec3& m) {
+double Predictor::plane_value(int i, int j, const ContactGeometry& g, const Vec3& n) const {
+  // The plane's value at g's time only: supports of those poses, no tracks.
+  auto support = [&](int b, const Vec3& center, const Vec3& axis, const Vec3& m) {
     const Species& sp = b_.sp(b);
     if (sp.shape == Shape::Sphere) return sp.radius;
-    return geom::cylinder_support(geom::Cylinder{center, body_axis(b_, b, t), sp.radius, sp.half_length}, m);
+    return geom::cylinder_support(geom::Cylinder{center, axis, sp.radius, sp.half_length}, m);
   };
-  return n.dot(g.center_b - g.center_a) - support(i, g.center_a, n) - support(j, g.center_b, -n);
+  return n.dot(g.center_b - g.center_a) - support(i, g.center_a, g.axis_a, n) - support(j, g.center_b, g.axis_b, -n);
 }
 
 SeparatingPlane Predictor::plane_along(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const {
@@ -303,14 +307,14 @@ Predictor::RankedNormals Predictor::rank_normals(int i, int j, double t, const C
   auto add = [&](const Vec3& v, int owner) {
     r.normal[r.count] = v;
     r.owner[r.count] = owner;
-    r.value[r.count] = plane_value(i, j, t, g, v);
+    r.value[r.count] = plane_value(i, j, g, v);
     if (r.value[r.count] > r.value[r.best]) r.best = r.count;
     if (owner != 0 && (r.feature < 0 || r.value[r.count] > r.value[r.feature])) r.feature = r.count;
     ++r.count;
   };
   add(n, 0);
-  const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, body_axis(b_, i, t), b_.sp(i));
-  const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, body_axis(b_, j, t), b_.sp(j));
+  const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, g.axis_a, b_.sp(i));
+  const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, g.axis_b, b_.sp(j));
   if (fa.has_normal && fa.normal.dot(n) > 0.0) add(fa.normal, 1);
   if (fb.has_normal && -fb.normal.dot(n) > 0.0) add(-fb.normal, 2);
   if (fa.on_rim && fb.on_rim) {
@@ -367,7 +371,7 @@ ContactFrame Predictor::on_axis_planes(int i, int j, double t, const ContactGeom
   // m = n x u / |n x u| (a face contact, n || u, needs no correction).
   auto plane_normal = [&](int b, const Vec3& center, double* offset) {
     if (b_.sp(b).shape != Shape::Linker) return Vec3(Vec3::Zero());
-    const Vec3 m = frame.normal.cross(body_axis(b_, b, t));
+    const Vec3 m = frame.normal.cross(b == i ? g.axis_a : g.axis_b);
     const double len = m.norm();
     if (len < 1e-6) return Vec3(Vec3::Zero());
     *offset = (m / len).dot(frame.point - center);
@@ -395,7 +399,7 @@ ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeome
   // line of action meets both axes (no spurious torque about either axis).
   const Species &si = b_.sp(i), &sj = b_.sp(j);
   if (si.shape != Shape::Linker || sj.shape != Shape::Linker) return on_axis_planes(i, j, t, g, frame);
-  const Vec3 ua = body_axis(b_, i, t), ub = body_axis(b_, j, t);
+  const Vec3 &ua = g.axis_a, &ub = g.axis_b;
   const FeatureNormal fa = feature_at(g.sep.point_a, g.center_a, ua, si);
   const FeatureNormal fb = feature_at(g.sep.point_b, g.center_b, ub, sj);
   auto on_side = [](const Vec3& p, const Vec3& c, const Vec3& u, const Species& s) {

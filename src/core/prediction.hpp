@@ -88,6 +88,11 @@ struct ContactGeometry {
   // the distance. Its points are not on the solids. It may step a search but
   // never fire a contact or set a contact frame.
   bool exact = true;
+  // The linkers' axes at the geometry's time (a sphere's entry is unused):
+  // every plane value, feature normal and contact frame at that time needs
+  // them, and body_axis evaluates a turning axis anew for each new time.
+  Vec3 axis_a = Vec3::UnitZ();
+  Vec3 axis_b = Vec3::UnitZ();
 };
 
 struct ContactFrame {
@@ -216,7 +221,7 @@ class Predictor {
   void fail(const char* what, int i, int j, double t, double reached, double gap, double bound);
   ContactFrame on_axis_planes(int i, int j, double t, const ContactGeometry& g, ContactFrame frame) const;
   RankedNormals rank_normals(int i, int j, double t, const ContactGeometry& g) const;
-  double plane_value(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const;
+  double plane_value(int i, int j, const ContactGeometry& g, const Vec3& n) const;  // at g's time
   SeparatingPlane plane_along(int i, int j, double t, const ContactGeometry& g, const Vec3& n) const;
 
   const BodyStore& b_;

@@ -79,7 +79,7 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       const OwnMotion mi = own_motion(b_, i, s), mj = own_motion(b_, j, s);
       // Two linkers side to side: the plane normal to both axes (no kink).
       if (b_.shape[i] == Shape::Linker && b_.shape[j] == Shape::Linker) {
-        const CrossedAxesPlane xp(axis_motion(b_, i, s, mi), axis_motion(b_, j, s, mj), g.center_b - g.center_a);
+        const CrossedAxesPlane xp(axis_motion(b_, i, g.axis_a, mi), axis_motion(b_, j, g.axis_b, mj), g.center_b - g.center_a);
         if (xp.usable() && xp.value() > stop) {
           const double h = xp.step(target, end - s);
           if (h > (d - target) / bound) {
@@ -107,7 +107,8 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
         const Vec3 dxy = x == i ? Vec3(g.center_b - g.center_a) : Vec3(g.center_a - g.center_b);
         auto first_order = [&](int b, const Vec3& c) {
           const OwnMotion& m = b == i ? mi : mj;
-          Kinematics k = make_kinematics(c, m.v, body_axis(b_, b, s));
+          const Vec3 u = b_.shape[b] == Shape::Sphere ? body_axis(b_, b, s) : b == i ? g.axis_a : g.axis_b;
+          Kinematics k = make_kinematics(c, m.v, u);
           k.t = s;
           k.precession = m.omega;
           return k;
@@ -142,7 +143,7 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       const Vec3& n = normal;
       const RefMotion ma = ref_motion(b_, i, s), mb = ref_motion(b_, j, s);
       const Vec3 ref_a = g.center_a + ma.offset, ref_b = g.center_b + mb.offset;
-      const SweptSupport sa(b_, i, s, n, g.center_a, ref_a), sb(b_, j, s, -n, g.center_b, ref_b);
+      const SweptSupport sa(b_, i, s, n, g.center_a, ref_a, g.axis_a), sb(b_, j, s, -n, g.center_b, ref_b, g.axis_b);
       const double gap0 = n.dot(ref_b - ref_a), rate = n.dot(mb.v - ma.v), q = 0.5 * (ma.accel + mb.accel);
       auto lower = [&](double tau) { return gap0 + (rate - q * tau) * tau - sa.at(tau) - sb.at(tau); };
       advance_by = std::max(advance_by, concave_reach(lower, target, advance_by, end - s, &plane_evaluations_));

@@ -73,7 +73,11 @@ struct SweptSupport {
   double radius = 0.0, half_length = 0.0, quad = 0.0;
   bool sphere = true;
 
-  SweptSupport(const BodyStore& b, int i, double s, const Vec3& dir, const Vec3& center, const Vec3& ref) {
+  SweptSupport(const BodyStore& b, int i, double s, const Vec3& dir, const Vec3& center, const Vec3& ref)
+      : SweptSupport(b, i, s, dir, center, ref, b.shape[i] == Shape::Sphere ? Vec3(Vec3::UnitZ()) : body_axis(b, i, s)) {}
+  // The same with a linker's axis at s already known (a sphere's is unused).
+  SweptSupport(const BodyStore& b, int i, double s, const Vec3& dir, const Vec3& center, const Vec3& ref,
+               const Vec3& axis_at_s) {
     const Species& sp = b.sp(i);
     const LocalMotion lm = local_motion(b, i, s);
     n = dir;
@@ -82,7 +86,7 @@ struct SweptSupport {
     sphere = sp.shape == Shape::Sphere;
     radius = sp.radius;
     half_length = sp.half_length;
-    if (!sphere) axis = body_axis(b, i, s);
+    if (!sphere) axis = axis_at_s;
     // |r| over the solid: the centre's offset plus the body's own extent
     // (a sphere: only its centre moves the ball).
     const double rho = offset.norm() + (sphere ? 0.0 : sp.bounding_radius);
@@ -184,10 +188,11 @@ inline OwnMotion own_motion(const BodyStore& b, int i, double s) {
   return {v, l.omega, c, l.accel};
 }
 
-// A linker's data for CrossedAxesPlane (core/crossed_axes.hpp) at s.
-inline AxisMotion axis_motion(const BodyStore& b, int i, double s, const OwnMotion& m) {
+// A linker's data for CrossedAxesPlane (core/crossed_axes.hpp) at s, where
+// its axis is u.
+inline AxisMotion axis_motion(const BodyStore& b, int i, const Vec3& u, const OwnMotion& m) {
   AxisMotion a;
-  a.u = body_axis(b, i, s);
+  a.u = u;
   a.v = m.v;
   a.du = m.omega.cross(a.u);
   a.center_accel = m.center_accel;
