@@ -66,10 +66,25 @@ Part part_of(const BodyStore& b, int i, double t) {
 }  // namespace
 
 namespace {
+// R pulled back onto the rotations once it has drifted. Every restart takes
+// the orientation reached by the old record as the new one, so rounding
+// accumulates along a cluster's chain of impulses: ~5e-17 per restart for a
+// nearly symmetric top such as a sphere-linker pair (5e-12 after 1e5;
+// tests/test_free_rotation.cpp, RestartChainStaysOrthonormal). Members' axes
+// are R times fixed unit vectors, and the geometry takes them as unit. Past
+// 1e-13 (largest entry of R^T R - 1) one Newton-Schulz step of the polar
+// decomposition, R (3 - R^T R) / 2, squares the error (Higham, Functions of
+// Matrices, 2008, section 8.3); below it R is left as it is.
+Mat3 keep_orthonormal(const Mat3& R) {
+  const Mat3 E = R.transpose() * R;
+  if ((E - Mat3::Identity()).cwiseAbs().maxCoeff() <= 1e-13) return R;
+  return R * (1.5 * Mat3::Identity() - 0.5 * E);
+}
+
 // The cluster's record restarted at t with angular momentum L (world): its
 // centre and orientation at t from the old record, a new FreeRotation.
 void restart_cluster(Cluster& c, const Box& box, double t, const Vec3& L) {
-  const Mat3 R = c.orientation_at(t);
+  const Mat3 R = keep_orthonormal(c.orientation_at(t));
   c.x = wrap_into(c.x + c.v * (t - c.t), box);
   c.rot = FreeRotation(c.moments, R, L);
   c.t = t;
