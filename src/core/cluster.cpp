@@ -72,9 +72,10 @@ namespace {
 // nearly symmetric top such as a sphere-linker pair (5e-12 after 1e5;
 // tests/test_free_rotation.cpp, RestartChainStaysOrthonormal). Members' axes
 // are R times fixed unit vectors, and the geometry takes them as unit. Past
-// 1e-13 (largest entry of R^T R - 1) one Newton-Schulz step of the polar
-// decomposition, R (3 - R^T R) / 2, squares the error (Higham, Functions of
-// Matrices, 2008, section 8.3); below it R is left as it is.
+// 1e-13 (largest entry of R^T R - 1) one step of the first-order iteration
+// towards the nearest orthogonal matrix, R (3 - R^T R) / 2, squares the
+// error (Bjorck & Bowie, SIAM J. Numer. Anal. 8, 358, 1971); below it R is
+// left as it is.
 Mat3 keep_orthonormal(const Mat3& R) {
   const Mat3 E = R.transpose() * R;
   if ((E - Mat3::Identity()).cwiseAbs().maxCoeff() <= 1e-13) return R;
