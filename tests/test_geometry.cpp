@@ -241,6 +241,37 @@ TEST(CylinderCylinder, HandCases) {
   EXPECT_NEAR(s.distance, 2.6 - 0.1 - 1.0, 1e-14);
 }
 
+// The pose of the one failed replicate of the R = 60 study (Scenario 5, seed
+// 1, replicate 20, t = 4593.2; docs/ARCHITECTURE.md, "A search that gave
+// up"): a rim of b 3e-9 from the side of a, b's face tilted 11 degrees from
+// a's tangent plane. With a's axis as the simulation had it (|u| = 1 +
+// 2.6e-9) no plane certified it; with unit axes the feature solver must,
+// and the exact side normal gives the distance to rounding.
+TEST(CylinderCylinder, Scenario5FailurePoseCertifies) {
+  const Vec3 ua = Vec3(0x1.e03834f1ad0afp-12, 0x1.432dff4ad36cfp-19, -0x1.fffffc9159963p-1).normalized();
+  const Cylinder a{Vec3(0x1.87fcee898e95p+5, 0x1.00005165cbfe8p+0, 0x1.654766c092be2p+5), ua, 1.0, 2.0};
+  const Cylinder b{Vec3(0x1.7ef61573583b7p+5, 0x1.fef9030533f7bp+1, 0x1.72594dc3f54fp+5),
+                   Vec3(0x1.bb122e94b7b77p-6, -0x1.fd9d2bc678468p-1, 0x1.7b20e0620728bp-4), 1.0, 2.0};
+  for (bool swap : {false, true}) {
+    double gap = 1.0;
+    const Separation f = swap ? cylinder_cylinder_features(b, a, &gap) : cylinder_cylinder_features(a, b, &gap);
+    EXPECT_LE(gap, 1e-12) << swap;
+    EXPECT_NEAR(f.distance, 2.9682203e-9, 1e-15) << swap;
+    bool certified = false;
+    const Separation s = swap ? cylinder_cylinder(b, a, 1e-10, &certified) : cylinder_cylinder(a, b, 1e-10, &certified);
+    EXPECT_TRUE(certified) << swap;
+    EXPECT_EQ(s.distance, f.distance) << swap;
+  }
+  // The side normal of a at its closest point (exactly perpendicular to a's
+  // axis) is the separating plane: its value is the distance.
+  const Separation f = cylinder_cylinder_features(a, b);
+  Vec3 radial = f.point_a - a.center;
+  radial -= radial.dot(a.axis) * a.axis;
+  const Vec3 n = radial.normalized();
+  const double plane = n.dot(b.center - a.center) - cylinder_support(a, n) - cylinder_support(b, -n);
+  EXPECT_NEAR(plane, f.distance, 1e-14);
+}
+
 TEST(CylinderCylinder, OverlapIsNonPositiveAndFinite) {
   const Cylinder a = unit_z_cylinder();
   const std::vector<Cylinder> others = {
