@@ -237,7 +237,7 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
     // Two linkers side to side: the plane normal to both axes has no kink
     // (crossed_axes.hpp) and converges like Newton's method.
     if (si.shape == Shape::Linker && sj.shape == Shape::Linker) {
-      const CrossedAxesPlane xp(axis_motion(b_, i, g.axis_a, own_motion(b_, i, s)), axis_motion(b_, j, g.axis_b, own_motion(b_, j, s)),
+      const CrossedAxesPlane xp(axis_motion(g.axis_a, si.radius, own_motion(b_, i, s)), axis_motion(g.axis_b, sj.radius, own_motion(b_, j, s)),
                                 g.center_b - g.center_a);
       if (xp.usable() && xp.value() > stop) {
         const double h = xp.step(target, end - s);

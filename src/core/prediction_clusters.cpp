@@ -79,7 +79,8 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       const OwnMotion mi = own_motion(b_, i, s), mj = own_motion(b_, j, s);
       // Two linkers side to side: the plane normal to both axes (no kink).
       if (b_.shape[i] == Shape::Linker && b_.shape[j] == Shape::Linker) {
-        const CrossedAxesPlane xp(axis_motion(b_, i, g.axis_a, mi), axis_motion(b_, j, g.axis_b, mj), g.center_b - g.center_a);
+        const CrossedAxesPlane xp(axis_motion(g.axis_a, b_.sp(i).radius, mi), axis_motion(g.axis_b, b_.sp(j).radius, mj),
+                                  g.center_b - g.center_a);
         if (xp.usable() && xp.value() > stop) {
           const double h = xp.step(target, end - s);
           if (h > (d - target) / bound) {
@@ -107,8 +108,8 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
         const Vec3 dxy = x == i ? Vec3(g.center_b - g.center_a) : Vec3(g.center_a - g.center_b);
         auto first_order = [&](int b, const Vec3& c) {
           const OwnMotion& m = b == i ? mi : mj;
-          const Vec3 u = b_.shape[b] == Shape::Sphere ? body_axis(b_, b, s) : b == i ? g.axis_a : g.axis_b;
-          Kinematics k = make_kinematics(c, m.v, u);
+          // (A sphere's axis is never read by the plane: it does not turn.)
+          Kinematics k = make_kinematics(c, m.v, b == i ? g.axis_a : g.axis_b);
           k.t = s;
           k.precession = m.omega;
           return k;

@@ -188,16 +188,16 @@ inline OwnMotion own_motion(const BodyStore& b, int i, double s) {
   return {v, l.omega, c, l.accel};
 }
 
-// A linker's data for CrossedAxesPlane (core/crossed_axes.hpp) at s, where
-// its axis is u.
-inline AxisMotion axis_motion(const BodyStore& b, int i, const Vec3& u, const OwnMotion& m) {
+// A linker's data for CrossedAxesPlane (core/crossed_axes.hpp) at s: its axis
+// u and radius there, and its own motion m at s.
+inline AxisMotion axis_motion(const Vec3& u, double radius, const OwnMotion& m) {
   AxisMotion a;
   a.u = u;
   a.v = m.v;
   a.du = m.omega.cross(a.u);
   a.center_accel = m.center_accel;
   a.axis_accel = m.turning_accel;
-  a.radius = b.sp(i).radius;
+  a.radius = radius;
   return a;
 }
 

@@ -33,7 +33,7 @@ Validator::Totals Validator::totals(const Simulation& sim, double t) {
   return Totals{m.momentum, m.angular_momentum, energy, m.p_scale, m.l_scale};
 }
 
-std::int64_t Validator::count_overlaps(const Simulation& sim, double t, double slack) {
+std::int64_t Validator::count_overlaps(const Simulation& sim, double t, double slack, double* max_axis_error) {
   const BodyStore& b = sim.bodies();
   const Box& box = sim.box();
   const int n = b.size();
@@ -44,6 +44,8 @@ std::int64_t Validator::count_overlaps(const Simulation& sim, double t, double s
     if (box.periodic)
       for (int d = 0; d < 3; ++d) x[i][d] -= box.length * std::floor(x[i][d] / box.length);
     u[i] = body_axis(b, i, t);
+    if (max_axis_error && b.shape[i] == Shape::Linker)
+      *max_axis_error = std::max(*max_axis_error, std::abs(u[i].norm() - 1.0));
     rmax = std::max(rmax, b.sp(i).bounding_radius);
   }
   // Fresh spatial hash with cells of the interaction range.
@@ -112,7 +114,7 @@ std::int64_t Validator::count_overlaps(const Simulation& sim, double t, double s
 
 void Validator::check(const Simulation& sim, double t) {
   ++report_.checks;
-  const std::int64_t ov = count_overlaps(sim, t, slack_);
+  const std::int64_t ov = count_overlaps(sim, t, slack_, &report_.max_axis_error);
   if (ov > 0 && report_.overlaps == 0) report_.first_overlap_time = t;
   report_.overlaps += ov;
   const Totals now = totals(sim, t);
@@ -124,10 +126,6 @@ void Validator::check(const Simulation& sim, double t) {
   }
   const double de = (now.energy - initial_.energy) / std::max(initial_.energy, 1e-300);
   report_.max_energy_error = std::max(report_.max_energy_error, elastic_ ? std::abs(de) : std::max(0.0, de));
-  const BodyStore& b = sim.bodies();
-  for (int i = 0; i < b.size(); ++i)
-    if (b.shape[i] == Shape::Linker)
-      report_.max_axis_error = std::max(report_.max_axis_error, std::abs(body_axis(b, i, t).norm() - 1.0));
 }
 
 }  // namespace ringsim

@@ -45,7 +45,9 @@ class Validator {
   // Totals of the current state at time t (bodies advanced on copies).
   struct Totals { Vec3 momentum; Vec3 angular_momentum; double energy; double p_scale; double l_scale; };
   static Totals totals(const Simulation& sim, double t);
-  static std::int64_t count_overlaps(const Simulation& sim, double t, double slack);
+  // *max_axis_error (optional): raised to the largest | |u| - 1 | of a linker
+  // axis among the poses it evaluates.
+  static std::int64_t count_overlaps(const Simulation& sim, double t, double slack, double* max_axis_error = nullptr);
 
  private:
   double slack_;
