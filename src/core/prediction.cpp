@@ -234,6 +234,14 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
       auto lower = [&](double tau) { return gap0 + rate * tau - sa.at(tau) - sb.at(tau); };
       swept_to = s + concave_reach(lower, target, std::max((d - target) / bound, min_step(bound)), end - s, &plane_evaluations_);
     }
+    // Proven free to the end of the search (the usual way a search ends
+    // without a contact): the tighter planes below could only prove more of
+    // what is no longer asked (they would raise proven_until_, which a later
+    // resumption of the search starts from; measured: not worth their cost).
+    if (swept_to >= end) {
+      s = swept_to;
+      continue;
+    }
     // Two linkers side to side: the plane normal to both axes has no kink
     // (crossed_axes.hpp) and converges like Newton's method.
     if (si.shape == Shape::Linker && sj.shape == Shape::Linker) {
