@@ -241,13 +241,22 @@ TEST(CrossedAxesPlane, StepStaysAboveTheTargetAndBelowTheTrueDistance) {
     const double h = xp.step(target, 2.0);
     if (h <= 0.0) continue;
     ++stepped;
-    const double M = xp.curvature_bound(h);
+    const double M = xp.curvature_bound(h), MF = xp.scaled_curvature_bound(h, target);
+    auto sine_at = [&](double t) {
+      const AxisMotion a = x.motion(t, L.radius), b = y.motion(t, L.radius);
+      return CrossedAxesPlane(a, b, b.x - a.x).sine();
+    };
+    // F's rate is its derivative along the true motion, F = |w| (s - target)
+    auto scaled_at = [&](double t) { return sine_at(t) * (plane_at(t) - target); };
+    EXPECT_NEAR(xp.scaled_rate(target), (scaled_at(e) - scaled_at(-e)) / (2.0 * e), 1e-6) << "trial " << trial;
     for (int m = 0; m <= 200; ++m) {
       const double t = h * m / 200.0;
       const double d = geom::cylinder_cylinder(x.cylinder(t, L), y.cylinder(t, L)).distance;
       EXPECT_GT(d, target - 1e-12) << "trial " << trial << " t " << t;
-      // the quadratic bound lies below the plane along the true motion
+      // both quadratic bounds lie below their functions along the true motion
       EXPECT_LE(xp.value() + xp.rate() * t - 0.5 * M * t * t, plane_at(t) + 1e-12) << "trial " << trial << " t " << t;
+      EXPECT_LE(xp.scaled_value(target) + xp.scaled_rate(target) * t - 0.5 * MF * t * t, scaled_at(t) + 1e-12)
+          << "trial " << trial << " t " << t;
       ++checked;
     }
   }

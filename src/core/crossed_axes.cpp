@@ -1,5 +1,6 @@
 #include "core/crossed_axes.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -19,9 +20,11 @@ CrossedAxesPlane::CrossedAxesPlane(const AxisMotion& x, const AxisMotion& y, con
   const Vec3 dm = (dw - m * m.dot(dw)) / rho0_;
   s0_ = m.dot(dx) - x.radius - y.radius;
   rate0_ = dm.dot(dx) + m.dot(dv);
+  q_rate0_ = m.dot(dw);
   d_norm_ = dx.norm();
   dv_norm_ = dv.norm();
   c_ = x.center_accel + y.center_accel;
+  r_sum_ = x.radius + y.radius;
   wx0_ = x.du.norm();
   wy0_ = y.du.norm();
   ax_ = x.axis_accel;
@@ -39,16 +42,42 @@ double CrossedAxesPlane::curvature_bound(double h) const {
   return ddm * D + 2.0 * dm * dD + c_;
 }
 
+double CrossedAxesPlane::scaled_curvature_bound(double h, double level) const {
+  const double wx = wx0_ + ax_ * h, wy = wy0_ + ay_ * h;
+  const double dw = wx + wy;
+  const double rho = rho0_ - dw * h;
+  if (rho < 0.25 * rho0_) return std::numeric_limits<double>::infinity();
+  const double ddw = ax_ + ay_ + 2.0 * wx * wy;
+  const double D = d_norm_ + dv_norm_ * h + 0.5 * c_ * h * h, dD = dv_norm_ + c_ * h;
+  // |P''| <= |w''| |D| + 2 |w'| |D'| + |w| |D''| with |w| <= 1; |Q''| <= |w''| + |w'|^2 / |w|.
+  return ddw * D + 2.0 * dw * dD + c_ + (r_sum_ + level) * (ddw + dw * dw / rho);
+}
+
+namespace {
+// The largest tau with e + r tau - M tau^2 / 2 >= 0 (e > 0), in forms
+// without cancellation; h when M <= 0 and r >= 0.
+double quadratic_root(double e, double r, double M, double h) {
+  if (M <= 0.0) return r >= 0.0 ? h : e / -r;
+  const double root = std::sqrt(r * r + 2.0 * M * e);
+  return r >= 0.0 ? (r + root) / M : 2.0 * e / (root - r);
+}
+}  // namespace
+
 double CrossedAxesPlane::step(double target, double h_max) const {
   if (!usable() || s0_ <= target || !(h_max > 0.0)) return 0.0;
-  // The largest tau with s0 + r tau - M tau^2 / 2 >= target, for the bound M
-  // valid over a step of length h: certified up to min(h, tau).
+  // Two certificates over a step of length h, each valid up to min(h, tau)
+  // for its own tau, so their larger tau is certified:
+  //  - s itself: the largest tau with s0 + r tau - M tau^2 / 2 >= target;
+  //  - F = P - (r_X + r_Y + target) Q >= 0 (header), whose curvature bound
+  //    has no 1 / |w|^2 terms: F(0) = rho0 (s0 - target),
+  //    F'(0) = rho0 s'(0) + Q'(0) (s0 - target) (from P = |w| (s + r_X + r_Y)).
   auto reach = [&](double h) {
-    const double M = curvature_bound(h);
-    if (!std::isfinite(M)) return 0.0;
-    const double r = rate0_, e = s0_ - target;
-    if (M <= 0.0) return r >= 0.0 ? h : e / -r;
-    return (r + std::sqrt(r * r + 2.0 * M * e)) / M;
+    const double M = curvature_bound(h), MF = scaled_curvature_bound(h, target);
+    if (!std::isfinite(M) || !std::isfinite(MF)) return 0.0;
+    const double e = s0_ - target;
+    const double by_s = quadratic_root(e, rate0_, M, h);
+    const double by_f = quadratic_root(rho0_ * e, rho0_ * rate0_ + q_rate0_ * e, MF, h);
+    return std::max(by_s, by_f);
   };
   // A first trial that keeps |w| >= rho0 / 2, (turn + A h) h <= rho0 / 2, so
   // that M is finite; if the bound certifies less than the trial, that much

@@ -24,6 +24,14 @@
 //     |m'| <= |w'| / rho,  |m''| <= 2 |w''| / rho + 5 |w'|^2 / rho^2
 // (m = w / |w| differentiated twice, every term bounded by the triangle
 // inequality, with |d|w|/dt| <= |w'| and |d^2|w|/dt^2| <= |w''| + |w'|^2 / |w|).
+//
+// The 1 / |w|^2 terms make M large while the axes turn (the steps then shrink
+// by a constant factor only, not quadratically). A second certificate avoids
+// them: with P = sigma w.D and Q = |w| (so s = P / Q - r_X - r_Y),
+//     s >= target  <=>  F = P - (r_X + r_Y + target) Q >= 0     (Q > 0),
+//     |F''| <= |w''| |D| + 2 |w'| |D'| + |w| |D''| + (r_X + r_Y + target) (|w''| + |w'|^2 / |w|),
+// with |w| <= 1 and the same bounds over the step. step() takes the longer of
+// the two certified steps.
 
 #include "core/vec.hpp"
 
@@ -45,17 +53,24 @@ class CrossedAxesPlane {
   // Axes far enough from parallel for m to be well conditioned.
   bool usable() const { return rho0_ >= kMinSine; }
   double value() const { return s0_; }
+  double sine() const { return rho0_; }  // |w| = |u_X x u_Y|
   double rate() const { return rate0_; }
   // A step h in (0, h_max] over which s stays above `target` (certified by
   // the bound above), as long as the search finds; 0 when s(0) <= target.
   double step(double target, double h_max) const;
   // The bound's curvature over a step of length h (infinity if |w| may vanish).
   double curvature_bound(double h) const;
+  // The bound on |F''| over a step of length h for the level `level` (header).
+  double scaled_curvature_bound(double h, double level) const;
+  // F's value and rate at the start for `level`: rho0 (s0 - level) and
+  // rho0 s'(0) + |w|'(0) (s0 - level).
+  double scaled_value(double level) const { return rho0_ * (s0_ - level); }
+  double scaled_rate(double level) const { return rho0_ * rate0_ + q_rate0_ * (s0_ - level); }
 
   static constexpr double kMinSine = 0.05;  // |u_X x u_Y|: about 3 degrees
 
  private:
-  double s0_ = 0.0, rate0_ = 0.0, rho0_ = 0.0;
+  double s0_ = 0.0, rate0_ = 0.0, rho0_ = 0.0, q_rate0_ = 0.0, r_sum_ = 0.0;
   double d_norm_ = 0.0, dv_norm_ = 0.0, c_ = 0.0;
   double wx0_ = 0.0, wy0_ = 0.0, ax_ = 0.0, ay_ = 0.0;
 };
