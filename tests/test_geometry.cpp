@@ -272,6 +272,46 @@ TEST(CylinderCylinder, Scenario5FailurePoseCertifies) {
   EXPECT_NEAR(plane, f.distance, 1e-14);
 }
 
+// A rim of a crossing over the edge of b's end face at distance eps, in the
+// rim region of b (direction alpha between b's radial and its face normal):
+// along the rim the distance to b has a kink at the scale of eps (one side
+// faces b's end face, the other b's side), the case RimSearch::face_edge
+// samples where the rim crosses the face's plane. Construction: b along z,
+// edge point E = (1, 0, 2); P = E + eps n, n = (cos alpha, 0, sin alpha);
+// tau = (-sin alpha, 0, cos alpha) (perpendicular to n and to the edge).
+// a's rim (radius 1) passes through P along tau, centred at P + m with
+// m = cos(gamma) n + sin(gamma) y: it curves away from E, so P is its point
+// nearest to b, and the tilt gamma puts P between the search's samples
+// (which start from the point of b nearest to the rim's centre). a's axis
+// is tau x m, its body on the side where its generator through P moves away
+// from b. The distance is eps, the normal -n.
+TEST(CylinderCylinder, RimOverAFaceEdge) {
+  const Cylinder b{Vec3::Zero(), Vec3::UnitZ(), 1.0, 2.0};
+  int cases = 0;
+  for (double eps : {1e-2, 1e-5, 1e-8, 5e-10}) {
+    for (double alpha : {0.2, 0.7, 1.2}) {
+      for (double gamma : {0.3, -0.5, 0.9}) {
+        const Vec3 n(std::cos(alpha), 0.0, std::sin(alpha)), tau(-std::sin(alpha), 0.0, std::cos(alpha));
+        const Vec3 m = std::cos(gamma) * n + std::sin(gamma) * Vec3::UnitY();
+        const Vec3 rim_center = Vec3(1.0, 0.0, 2.0) + eps * n + m;
+        const Vec3 u = tau.cross(m);
+        const Vec3 axis = gamma > 0.0 ? Vec3(-u) : u;
+        const Cylinder a{rim_center + 2.0 * axis, axis, 1.0, 2.0};
+        for (bool swap : {false, true}) {
+          bool certified = false;
+          const Separation s = swap ? cylinder_cylinder(b, a, 1e-10, &certified) : cylinder_cylinder(a, b, 1e-10, &certified);
+          EXPECT_TRUE(certified) << eps << " " << alpha << " " << gamma << " " << swap;
+          EXPECT_NEAR(s.distance, eps, 1e-14 + 1e-12 * eps) << eps << " " << alpha << " " << gamma << " " << swap;
+          const Vec3 normal = swap ? Vec3(-s.normal) : s.normal;  // from a towards b
+          EXPECT_NEAR(normal.dot(-n), 1.0, 1e-6) << eps << " " << alpha << " " << gamma << " " << swap;
+          ++cases;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(cases, 72);
+}
+
 TEST(CylinderCylinder, OverlapIsNonPositiveAndFinite) {
   const Cylinder a = unit_z_cylinder();
   const std::vector<Cylinder> others = {

@@ -204,7 +204,38 @@ class RimSearch {
     const RimSample &a = s_[i], &b = s_[i + 1];
     if (is_min_bracket(a, b) && lower_bound(th_[i], a, th_[i + 1], b) < best_->d - kEps) {
       polished_[i] = true;
-      polish(th_[i], a.fp, th_[i + 1], b.fp);
+      double lo = th_[i], f_lo = a.fp, hi = th_[i + 1], f_hi = b.fp;
+      face_edge(a, b, &lo, &f_lo, &hi, &f_hi);
+      polish(lo, f_lo, hi, f_hi);
+    }
+  }
+
+  // One end of the bracket faces an end face of the other solid (gradient =
+  // its axis, exactly) and the other does not: the minimum is usually where
+  // the rim passes that face's edge, and f' jumps there from one region's
+  // slope to the other's within an angle ~ f, which regula falsi closes in
+  // on only linearly. Sample where the rim crosses the face's plane (closed
+  // form: a sinusoid of the angle) and shrink the bracket to it.
+  void face_edge(const RimSample& sa, const RimSample& sb, double* lo, double* f_lo, double* hi, double* f_hi) {
+    const Vec3& axis = other_->axis;
+    const bool face_a = sa.g == axis || sa.g == Vec3(-axis), face_b = sb.g == axis || sb.g == Vec3(-axis);
+    if (face_a == face_b) return;
+    const Vec3& g = face_a ? sa.g : sb.g;  // the face's outward normal
+    // g.(p(t) - c) - h = k + u cos t + v sin t, zero where the rim crosses the plane.
+    const double k = g.dot(C_ - other_->center) - other_->half_length;
+    const double u = r_ * g.dot(e1_), v = r_ * g.dot(e2_), m = std::hypot(u, v);
+    if (!(m > std::abs(k))) return;
+    const double phase = std::atan2(v, u), spread = std::acos(-k / m);
+    for (const double t0 : {phase - spread, phase + spread}) {
+      double t = t0;
+      while (t < *lo) t += 2.0 * kPi;
+      while (t > *lo + 2.0 * kPi) t -= 2.0 * kPi;
+      if (!(t > *lo && t < *hi)) continue;
+      const RimSample s = eval(t);
+      if (best_->d <= 0.0) return;
+      if (s.fp > 0.0) *hi = t, *f_hi = s.fp;
+      else *lo = t, *f_lo = s.fp;
+      return;
     }
   }
 
