@@ -31,26 +31,34 @@ CrossedAxesPlane::CrossedAxesPlane(const AxisMotion& x, const AxisMotion& y, con
   ay_ = y.axis_accel;
 }
 
-double CrossedAxesPlane::curvature_bound(double h) const {
+CrossedAxesPlane::StepBounds CrossedAxesPlane::step_bounds(double h) const {
+  StepBounds k;
   const double wx = wx0_ + ax_ * h, wy = wy0_ + ay_ * h;
-  const double dw = wx + wy;
-  const double rho = rho0_ - dw * h;
-  if (rho < 0.25 * rho0_) return std::numeric_limits<double>::infinity();
-  const double ddw = ax_ + ay_ + 2.0 * wx * wy;
-  const double dm = dw / rho, ddm = 2.0 * ddw / rho + 5.0 * dw * dw / (rho * rho);
-  const double D = d_norm_ + dv_norm_ * h + 0.5 * c_ * h * h, dD = dv_norm_ + c_ * h;
-  return ddm * D + 2.0 * dm * dD + c_;
+  k.dw = wx + wy;
+  k.rho = rho0_ - k.dw * h;
+  k.usable = k.rho >= 0.25 * rho0_;
+  k.ddw = ax_ + ay_ + 2.0 * wx * wy;
+  k.D = d_norm_ + dv_norm_ * h + 0.5 * c_ * h * h;
+  k.dD = dv_norm_ + c_ * h;
+  return k;
 }
 
-double CrossedAxesPlane::scaled_curvature_bound(double h, double level) const {
-  const double wx = wx0_ + ax_ * h, wy = wy0_ + ay_ * h;
-  const double dw = wx + wy;
-  const double rho = rho0_ - dw * h;
-  if (rho < 0.25 * rho0_) return std::numeric_limits<double>::infinity();
-  const double ddw = ax_ + ay_ + 2.0 * wx * wy;
-  const double D = d_norm_ + dv_norm_ * h + 0.5 * c_ * h * h, dD = dv_norm_ + c_ * h;
+double CrossedAxesPlane::curvature_of_s(const StepBounds& k) const {
+  if (!k.usable) return std::numeric_limits<double>::infinity();
+  const double dm = k.dw / k.rho, ddm = 2.0 * k.ddw / k.rho + 5.0 * k.dw * k.dw / (k.rho * k.rho);
+  return ddm * k.D + 2.0 * dm * k.dD + c_;
+}
+
+double CrossedAxesPlane::curvature_of_f(const StepBounds& k, double level) const {
+  if (!k.usable) return std::numeric_limits<double>::infinity();
   // |P''| <= |w''| |D| + 2 |w'| |D'| + |w| |D''| with |w| <= 1; |Q''| <= |w''| + |w'|^2 / |w|.
-  return ddw * D + 2.0 * dw * dD + c_ + (r_sum_ + level) * (ddw + dw * dw / rho);
+  return k.ddw * k.D + 2.0 * k.dw * k.dD + c_ + (r_sum_ + level) * (k.ddw + k.dw * k.dw / k.rho);
+}
+
+double CrossedAxesPlane::curvature_bound(double h) const { return curvature_of_s(step_bounds(h)); }
+
+double CrossedAxesPlane::scaled_curvature_bound(double h, double level) const {
+  return curvature_of_f(step_bounds(h), level);
 }
 
 namespace {
@@ -72,11 +80,10 @@ double CrossedAxesPlane::step(double target, double h_max) const {
   //    has no 1 / |w|^2 terms: F(0) = rho0 (s0 - target),
   //    F'(0) = rho0 s'(0) + Q'(0) (s0 - target) (from P = |w| (s + r_X + r_Y)).
   auto reach = [&](double h) {
-    const double M = curvature_bound(h), MF = scaled_curvature_bound(h, target);
-    if (!std::isfinite(M) || !std::isfinite(MF)) return 0.0;
-    const double e = s0_ - target;
-    const double by_s = quadratic_root(e, rate0_, M, h);
-    const double by_f = quadratic_root(rho0_ * e, rho0_ * rate0_ + q_rate0_ * e, MF, h);
+    const StepBounds k = step_bounds(h);
+    if (!k.usable) return 0.0;
+    const double by_s = quadratic_root(s0_ - target, rate0_, curvature_of_s(k), h);
+    const double by_f = quadratic_root(scaled_value(target), scaled_rate(target), curvature_of_f(k, target), h);
     return std::max(by_s, by_f);
   };
   // A first trial that keeps |w| >= rho0 / 2, (turn + A h) h <= rho0 / 2, so

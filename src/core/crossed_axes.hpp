@@ -70,6 +70,16 @@ class CrossedAxesPlane {
   static constexpr double kMinSine = 0.05;  // |u_X x u_Y|: about 3 degrees
 
  private:
+  // Bounds over a step of length h shared by both certificates: |w'| <= dw,
+  // |w''| <= ddw, |w| >= rho (usable: rho >= rho0 / 4), |D| <= D, |D'| <= dD.
+  struct StepBounds {
+    double dw, ddw, rho, D, dD;
+    bool usable;
+  };
+  StepBounds step_bounds(double h) const;
+  double curvature_of_s(const StepBounds& k) const;
+  double curvature_of_f(const StepBounds& k, double level) const;
+
   double s0_ = 0.0, rate0_ = 0.0, rho0_ = 0.0, q_rate0_ = 0.0, r_sum_ = 0.0;
   double d_norm_ = 0.0, dv_norm_ = 0.0, c_ = 0.0;
   double wx0_ = 0.0, wy0_ = 0.0, ax_ = 0.0, ay_ = 0.0;

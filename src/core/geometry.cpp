@@ -217,9 +217,10 @@ class RimSearch {
   // on only linearly. Sample where the rim crosses the face's plane (closed
   // form: a sinusoid of the angle) and shrink the bracket to it.
   void face_edge(const RimSample& sa, const RimSample& sb, double* lo, double* f_lo, double* hi, double* f_hi) {
-    const Vec3& axis = other_->axis;
-    const bool face_a = sa.g == axis || sa.g == Vec3(-axis), face_b = sb.g == axis || sb.g == Vec3(-axis);
-    if (face_a == face_b) return;
+    // (signed_point_cylinder sets a face's gradient to +-axis exactly)
+    auto on_face = [&](const Vec3& g) { return g == other_->axis || g == Vec3(-other_->axis); };
+    const bool face_a = on_face(sa.g);
+    if (face_a == on_face(sb.g)) return;
     const Vec3& g = face_a ? sa.g : sb.g;  // the face's outward normal
     // g.(p(t) - c) - h = k + u cos t + v sin t, zero where the rim crosses the plane.
     const double k = g.dot(C_ - other_->center) - other_->half_length;
@@ -227,7 +228,7 @@ class RimSearch {
     if (!(m > std::abs(k))) return;
     const double phase = std::atan2(v, u), spread = std::acos(-k / m);
     for (const double t0 : {phase - spread, phase + spread}) {
-      double t = t0;
+      double t = t0;  // t0 (mod 2 pi) in [lo, lo + 2 pi]
       while (t < *lo) t += 2.0 * kPi;
       while (t > *lo + 2.0 * kPi) t -= 2.0 * kPi;
       if (!(t > *lo && t < *hi)) continue;
