@@ -394,6 +394,39 @@ TEST(ValidationWithBonds, PeriodicBoxClustersAcrossTheBoundary) {
   EXPECT_TRUE(straddled) << "no cluster crosses the boundary at the end; the test did not exercise it";
 }
 
+TEST(RigidCluster, PairMeetingAgainThroughThePeriodicBoundaryIsNotSkipped) {
+  // The cluster search's version of the free linkers' regression test
+  // (test_simulation.cpp): a sphere-linker cluster bonded at t = 0 and at
+  // rest (sphere 0 at c, the linker below it along z, end 0 in the shell),
+  // sphere 1 leaving sphere 0 from an offset (1, 3, 0) (inside the window of
+  // the cluster's reference point, without touching: 3 > 2 r_S), once round
+  // the periodic box, and back with the offset reduced to 3 - 0.05 t: the
+  // spheres touch at the first root of |(1 + t - L, 3 - 0.05 t)| = 2.
+  SimParams p = bonding_params();
+  p.geometry.boundary = Boundary::Periodic;
+  p.geometry.box_length = 50.0;
+  p.run.t_max = 100.0;
+  const double L = p.geometry.box_length, rc = p.bonding.capture_distance;
+  const Vec3 c(25, 25, 25);
+  const double below = 1.0 + 0.5 * rc + 0.5 * p.geometry.linker_length;  // linker centre under sphere 0
+  BodyStore b = make_bodies(p, {{Shape::Sphere, c, kZero, Vec3::UnitZ(), kZero},
+                                {Shape::Sphere, c + Vec3(1.0, 3.0, 0), Vec3(1, -0.05, 0), Vec3::UnitZ(), kZero},
+                                {Shape::Linker, c - below * Vec3::UnitZ(), kZero, Vec3::UnitZ(), kZero}});
+  Simulation sim(p, std::move(b));
+  ASSERT_EQ(sim.stats().bonds, 1);
+  ASSERT_GE(sim.bodies().group[0], 0);
+  while (sim.stats().collisions == 0 && sim.step()) {
+  }
+  ASSERT_EQ(sim.stats().collisions, 1);
+  const double vy = -0.05, qa = 1.0 + vy * vy, qb = 2.0 * (1.0 - L) + 6.0 * vy, qc = (1.0 - L) * (1.0 - L) + 5.0;
+  const double t_touch = (-qb - std::sqrt(qb * qb - 4.0 * qa * qc)) / (2.0 * qa);
+  const double delta = p.run.contact_tolerance;
+  const double rate = std::abs(2.0 * qa * t_touch + qb) / 4.0;  // d|offset|/dt there
+  EXPECT_NEAR(sim.time(), t_touch, delta / rate);
+  sim.run();
+  EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
+}
+
 TEST(Termination, NoBondPossibleOnceTheOnlyOpenSitesShareACluster) {
   // One sphere and one linker: after the capture the sphere has one free
   // valency and the linker one free end, but they are one rigid body.

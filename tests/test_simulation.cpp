@@ -22,6 +22,7 @@
 #include "core/snapshot.hpp"
 #include "core/validation.hpp"
 #include "ensemble/config.hpp"
+#include "body_builder.hpp"
 
 namespace ringsim {
 namespace {
@@ -294,6 +295,52 @@ TEST(Validation, PeriodicFrictionalInelasticRunKeepsMomentumAndNoOverlap) {
   EXPECT_FALSE(run.energy_conserving);
   EXPECT_LT(run.report.max_energy_error, 1e-12);  // energy never increases
   EXPECT_GT(run.stats.stick + run.stats.slide, 100);
+}
+
+// Linker 0 at rest; linker 1, offset by (3.2, 3, 0) and moving at (1, vy, 0),
+// passes it within the bounding-sphere window without touching (lateral
+// offset > 2 r_L), goes once round the periodic box and comes back with the
+// offset reduced by |vy| t: it must touch then. Body 0 predicts the pair once,
+// at t = 0 (it never moves, so its own horizon is infinite), and that search
+// sees the bounding spheres part for good on the minimum image of t = 0; its
+// proof must not be taken for "never" when the pair meets again through the
+// boundary (by the pair memo, or within one search in a small box).
+void expect_contact_after_one_turn(double box, double vy, bool partner_horizon) {
+  SCOPED_TRACE("box " + std::to_string(box) + ", vy " + std::to_string(vy) +
+               ", partner_horizon " + std::to_string(partner_horizon));
+  SimParams p;
+  p.bonding.enabled = false;
+  p.geometry.boundary = Boundary::Periodic;
+  p.geometry.box_length = box;
+  p.init.spheres = 0;
+  p.init.linkers = 2;
+  p.run.t_max = 3.0 * box;
+  p.run.partner_horizon = partner_horizon;
+  const Vec3 c(0.5 * box, 0.5 * box, 0.5 * box), zero = Vec3::Zero();
+  BodyStore b = test::make_bodies(p, {{Shape::Linker, c, zero, Vec3::UnitZ(), zero},
+                                      {Shape::Linker, c + Vec3(3.2, 3.0, 0), Vec3(1, vy, 0), Vec3::UnitZ(), zero}});
+  Simulation sim(p, std::move(b));
+  while (sim.stats().collisions == 0 && sim.step()) {
+  }
+  ASSERT_EQ(sim.stats().collisions, 1);
+  // Parallel cylinders touch side to side at axis distance 2 r_L = 2; after
+  // one turn their offset is (3.2 + t - L, 3 + vy t): the first root of
+  // |offset|^2 = 4, fired within the contact band (gap in [delta/2, delta]).
+  const double qa = 1.0 + vy * vy, qb = 2.0 * (3.2 - box) + 6.0 * vy, qc = (3.2 - box) * (3.2 - box) + 5.0;
+  const double t_touch = (-qb - std::sqrt(qb * qb - 4.0 * qa * qc)) / (2.0 * qa);
+  const double delta = p.run.contact_tolerance;
+  const double rate = std::abs(2.0 * qa * t_touch + qb) / 4.0;  // d|offset|/dt there
+  EXPECT_NEAR(sim.time(), t_touch, delta / rate);
+  EXPECT_NEAR(std::hypot(3.2 + sim.time() - box, 3.0 + vy * sim.time()), 2.0 + 0.75 * delta, 0.25 * delta + 1e-12);
+  sim.run();
+  EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
+}
+
+TEST(Regression, PairMeetingAgainThroughThePeriodicBoundaryIsNotSkipped) {
+  for (bool partner_horizon : {true, false}) {
+    expect_contact_after_one_turn(50.0, -0.05, partner_horizon);  // the default box, 10 cells a side
+    expect_contact_after_one_turn(10.0, -0.3, partner_horizon);   // two cells a side
+  }
 }
 
 TEST(Regression, GrazingWallContactOfALinkerDoesNotStall) {

@@ -16,6 +16,7 @@ namespace ringsim {
 using detail::axis_motion;
 using detail::concave_reach;
 using detail::own_motion;
+using detail::image_return;
 using detail::sphere_window;
 using detail::SweptSupport;
 using detail::wall_window_impl;
@@ -118,13 +119,21 @@ double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
 }
 
 double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
-  if (in_cluster(b_, i) || in_cluster(b_, j)) return advance_generic(i, j, t, limit);
-  if (b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) {
+  const bool generic = in_cluster(b_, i) || in_cluster(b_, j);
+  if (!generic && b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) {
     const double tc = sphere_sphere(i, j, t, xi);
     proven_until_ = tc;
     return tc < limit ? tc : kNever;
   }
-  return advance_pair(i, j, t, limit);
+  // A search follows the minimum image of its start. In a periodic box it may
+  // prove the pair free only up to the time another image can come back
+  // (image_return): search on from there until the limit. (With no limit at
+  // all the proof stops there; the other body, which moves, has a finite one.)
+  for (;;) {
+    const double tc = generic ? advance_generic(i, j, t, limit) : advance_pair(i, j, t, limit);
+    if (tc < kNever || !image_closed_ || proven_until_ >= limit || proven_until_ <= t || limit == kNever) return tc;
+    t = proven_until_;
+  }
 }
 
 ContactGeometry Predictor::contact_geometry(int i, int j, double t) const { return bound_geometry(i, j, t, kNever); }
@@ -195,16 +204,23 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
   const Species &si = b_.sp(i), &sj = b_.sp(j);
   const Vec3 dx = box_.min_image(position_at(kj, t) - position_at(ki, t));
   const Vec3 dv = kj.v - ki.v;
-  proven_until_ = kNever;
+  const double R = si.bounding_radius + sj.bounding_radius + delta_;
+  const double back = image_return(box_, dx, dv, R);
+  proven_until_ = t + back;
+  image_closed_ = true;
   double enter, leave;
-  if (!sphere_window(dx, dv, si.bounding_radius + sj.bounding_radius + delta_, &enter, &leave)) return kNever;
+  if (!sphere_window(dx, dv, R, &enter, &leave)) return kNever;
+  image_closed_ = false;
   double s = t + enter;
   const double end = std::min(limit, t + leave);
   const double bound = dv.norm() + shape_rotation_speed(ki, si) + shape_rotation_speed(kj, sj);
   if (bound == 0.0) return kNever;  // rigidly fixed relative pose: the gap never changes
   for (int step = 0; step < kMaxSteps; ++step) {
     if (s >= end) {
-      if (t + leave >= limit) proven_until_ = s;  // else the window closed: never
+      // The limit reached, or the window closed (on this image; others come
+      // back no earlier than `back`).
+      image_closed_ = t + leave < limit;
+      proven_until_ = image_closed_ ? t + std::max(leave, back) : s;
       return kNever;
     }
     ++ca_iterations_;

@@ -176,10 +176,14 @@ class Predictor {
   const std::string& failure() const { return failure_; }
   // After pair() found no contact before its limit: no contact before this
   // time either (>= the limit; infinity when the bounding spheres never meet
-  // again, or the pair never touches). A search stops at the first step that
-  // reaches its limit, and that step is certified to its end, so the proof
-  // often reaches beyond the limit; the pair memo (Simulation::memo_pair)
-  // keeps it, so a later prediction with a later horizon resumes from there.
+  // again in a closed box, or the pair never touches). A search stops at the
+  // first step that reaches its limit, and that step is certified to its end,
+  // so the proof often reaches beyond the limit; the pair memo
+  // (Simulation::memo_pair) keeps it, so a later prediction with a later
+  // horizon resumes from there. In a periodic box a closed window proves the
+  // pair free only until another image can come back (image_return); with no
+  // limit (kNever) the proof may end there, below the limit. (Two free
+  // spheres, a closed form on the minimum image, are not for the memo.)
   double proven_until() const { return proven_until_; }
 
   // Safety net against a search that cannot converge (it reports, never skips).
@@ -233,6 +237,9 @@ class Predictor {
   bool failed_ = false;
   std::string failure_;
   double proven_until_ = 0.0;
+  // The last pair search ended on a window closed on its minimum image, so
+  // proven_until_ may stop short of its limit (periodic box, image_return).
+  bool image_closed_ = false;
 };
 
 }  // namespace ringsim

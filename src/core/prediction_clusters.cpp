@@ -15,6 +15,7 @@ namespace ringsim {
 
 using detail::axis_motion;
 using detail::concave_reach;
+using detail::image_return;
 using detail::point_motion;
 using detail::PointMotion;
 using detail::quadratic_reach;
@@ -35,8 +36,13 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
   proven_until_ = known;
   const Vec3 dx = box_.min_image(reference_center(b_, j, t) - reference_center(b_, i, t));
   const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
+  const double R = reference_radius(b_, i) + reference_radius(b_, j) + delta_;
+  const double back = image_return(box_, dx, dv, R);
+  proven_until_ = std::min(known, t + back);
+  image_closed_ = t + back < known;
   double enter, leave;
-  if (!sphere_window(dx, dv, reference_radius(b_, i) + reference_radius(b_, j) + delta_, &enter, &leave)) return kNever;
+  if (!sphere_window(dx, dv, R, &enter, &leave)) return kNever;
+  image_closed_ = false;
   ++counts_.cluster_pair_searches;
   double s = t + enter;
   const double end = std::min(limit, t + leave);
@@ -45,7 +51,14 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
   if (bound == 0.0) return kNever;
   for (int step = 0; step < kMaxSteps; ++step) {
     if (s >= end) {
-      if (t + leave >= limit) proven_until_ = s;  // else the window closed: never
+      // The limit reached, or the window closed (on this image; others come
+      // back no earlier than `back`).
+      if (t + leave < limit) {
+        proven_until_ = std::min(known, t + std::max(leave, back));
+        image_closed_ = proven_until_ < known;
+      } else {
+        proven_until_ = s;
+      }
       return kNever;
     }
     ++ca_iterations_;

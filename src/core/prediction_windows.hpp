@@ -40,6 +40,20 @@ inline bool sphere_window(const Vec3& dx, const Vec3& dv, double R, double* ente
   return true;
 }
 
+// How long a closed window stays closed. A window found on the minimum image
+// of t (the relative line dx + dv s) that has ended, or never opens, is closed
+// for good on that image only: in a periodic box of edge L another image,
+// dx + dv s - L k with k a non-zero integer vector, comes within R no earlier
+// than |dv| s >= min_c (L - |dx_c|) - R, since some component of dx - L k has
+// magnitude at least L - |dx_c| >= L/2. Relative time; kNever in a closed box
+// or without relative motion; 0 when nothing can be said (R >= L/2).
+inline double image_return(const Box& box, const Vec3& dx, const Vec3& dv, double R) {
+  const double speed = dv.norm();
+  if (!box.periodic || speed == 0.0) return kNever;
+  const double gap = box.length - dx.cwiseAbs().maxCoeff() - R;
+  return gap > 0.0 ? gap / speed : 0.0;
+}
+
 // The window in which a body whose reference point moves linearly (x + v s
 // along one axis) can touch the wall at 0 (dir -1) or at L (dir +1): while
 // that point is within `reach` of the wall. Narrows [*start, *end) from t;

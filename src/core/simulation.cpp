@@ -405,11 +405,11 @@ double Simulation::memo_pair(int i, int j, double t, double limit, const Vec3& x
     } else {
       ++stats_.memo_resumed;
       tc = predictor_.pair(i, j, std::max(t, m->until), limit, reference_center(bodies_, i, std::max(t, m->until)));
-      if (tc == kNever) out.until = std::max(limit, predictor_.proven_until());
+      if (tc == kNever) out.until = predictor_.proven_until();
     }
   } else {
     tc = predictor_.pair(i, j, t, limit, xi);
-    if (tc == kNever) out.until = std::max(limit, predictor_.proven_until());
+    if (tc == kNever) out.until = predictor_.proven_until();
   }
   if (tc < kNever) {
     out.until = tc;
