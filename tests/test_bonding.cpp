@@ -68,6 +68,32 @@ TEST(Capture, HeadOnSphereIsCapturedWhenTheGapReachesTheCaptureDistance) {
   EXPECT_NEAR(cl.rot.angular_momentum().norm(), 0.0, 1e-12);
 }
 
+TEST(Capture, OneSearchFindsTheCaptureOnTheNextPeriodicImage) {
+  // A box of edge 10 (periodic): a linker at rest at the centre c along y
+  // (end 0 at c + 2 y), a sphere from c + (3, 3.1, 0) at (-0.25, -1, 0). It
+  // passes end 0 at an offset of ~2.7 (no capture), leaves the window of the
+  // minimum image of t = 0, wraps round in y and comes back to end 0 with the
+  // offset (3 - t/4, 11.1 - t): capture at the first root of
+  // |offset| = r_S + r_c = 1.1. One search with a limit past it must find it.
+  SimParams p = bonding_params();
+  p.geometry.boundary = Boundary::Periodic;
+  p.geometry.box_length = 10.0;
+  const Vec3 c(5, 5, 5);
+  BodyStore b = make_bodies(p, {{Shape::Sphere, c + Vec3(3.0, 3.1, 0), Vec3(-0.25, -1, 0), Vec3::UnitZ(), kZero},
+                                {Shape::Linker, c, kZero, Vec3::UnitY(), kZero}});
+  b.free_all();
+  const double delta = p.run.contact_tolerance, rc = p.bonding.capture_distance;
+  Predictor pred(b, Box{10.0, true}, delta);
+  // (3 - t/4)^2 + (11.1 - t)^2 = 1.1^2
+  const double qa = 1.0625, qb = -23.7, qc = 9.0 + 11.1 * 11.1 - 1.1 * 1.1;
+  const double t_capture = (-qb - std::sqrt(qb * qb - 4.0 * qa * qc)) / (2.0 * qa);
+  const double tc = pred.capture(1, 0, 0, 0.0, 20.0, rc);
+  const double rate = std::abs(2.0 * qa * t_capture + qb) / (2.0 * 1.1);  // d|offset|/dt there
+  EXPECT_NEAR(tc, t_capture, delta / rate);
+  EXPECT_GT(t_capture, 10.0);  // after the wrap
+  EXPECT_FALSE(pred.failed());
+}
+
 TEST(Capture, RotatingLinkerCapturesAnApproachingSphere) {
   // A linker turning about z at w (perpendicular to its axis: pure
   // precession, so end 0 is at c + h (cos wt, sin wt, 0)) and a sphere

@@ -131,7 +131,8 @@ double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
   // all the proof stops there; the other body, which moves, has a finite one.)
   for (;;) {
     const double tc = generic ? advance_generic(i, j, t, limit) : advance_pair(i, j, t, limit);
-    if (tc < kNever || !image_closed_ || proven_until_ >= limit || proven_until_ <= t || limit == kNever) return tc;
+    if (tc < kNever || !image_closed_ || proven_until_ >= limit || proven_until_ <= t || limit == kNever || failed_)
+      return tc;
     t = proven_until_;
   }
 }

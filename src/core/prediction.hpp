@@ -208,6 +208,9 @@ class Predictor {
   // Pairs and walls with a cluster member: plain conservative advancement with
   // the reference-motion bounds of core/pose.hpp.
   double advance_generic(int i, int j, double t, double limit);
+  // capture() on the minimum image of t; when the window closes before the
+  // limit, *resume is where the search must go on (image_return).
+  double capture_on_image(int l, int end, int s, double t, double limit, double rc, double* resume);
   WallHit wall_generic(int i, double t, double limit);
   // Candidate normals at a contact geometry, with their plane values: the
   // solver's normal, the feature normals of i (owner 1) and of j (owner 2), the

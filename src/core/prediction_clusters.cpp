@@ -272,18 +272,36 @@ double Predictor::capture_gap(int l, int end, int s, double t, double rc) const 
 }
 
 double Predictor::capture(int l, int end, int s, double t, double limit, double rc) {
+  limit = std::min({limit, motion_horizon(b_, l), motion_horizon(b_, s)});
+  // As in pair(): a window closed on the minimum image of t stays closed only
+  // until another image can come back (periodic box): search on from there.
+  // (There the gap exceeds 2 delta, so the search starts armed.)
+  for (;;) {
+    double resume = kNever;
+    const double tc = capture_on_image(l, end, s, t, limit, rc, &resume);
+    if (tc < kNever || resume >= limit || resume <= t || limit == kNever || failed_) return tc;
+    t = resume;
+  }
+}
+
+double Predictor::capture_on_image(int l, int end, int s, double t, double limit, double rc, double* resume) {
   const double h = b_.sp(l).half_length;
   const double rs = b_.sp(s).radius;
   // Window: the end point stays within h (+ reach) of l's reference point, the
   // sphere's centre within its reach of its own.
-  limit = std::min({limit, motion_horizon(b_, l), motion_horizon(b_, s)});
   const double rl = reference_offset(b_, l) + h;
   const double rsph = reference_offset(b_, s);
   const Vec3 dx = box_.min_image(reference_center(b_, s, t) - reference_center(b_, l, t));
   const Vec3 dv = reference_velocity(b_, s) - reference_velocity(b_, l);
+  const double R = rl + rsph + rs + rc + 2.0 * delta_;
+  const double back = image_return(box_, dx, dv, R);
   double enter, leave;
-  if (!sphere_window(dx, dv, rl + rsph + rs + rc + 2.0 * delta_, &enter, &leave)) return kNever;
+  if (!sphere_window(dx, dv, R, &enter, &leave)) {
+    *resume = t + back;
+    return kNever;
+  }
   ++counts_.capture_searches;
+  if (t + leave < limit) *resume = t + std::max(leave, back);
   const double stop = std::min(limit, t + leave);
   const double bound = dv.norm() + point_rotation_bound(b_, l, h) + point_rotation_bound(b_, s, 0.0);
   if (bound == 0.0) return kNever;
