@@ -255,6 +255,28 @@ TEST(Pose, AxisMemoEqualsDirectEvaluation) {
 // (the level every certified step keeps) all the way to the proven time, not
 // only to the limit. Random approaching pairs: two free linkers, and a linker
 // against a member of a turning two-body cluster.
+TEST(PairSearch, WindowEntryCountsTheNextPeriodicImage) {
+  // Box of edge 10 (periodic): linker 1 at c + (4.9, 0, 0) moving at +x away
+  // from linker 0 (at rest): on the minimum image the bounding spheres
+  // (radius sum R = 2 sqrt(5) + delta) never meet, but the next image,
+  // 10 - 4.9 = 5.1 behind, comes within R at t = 5.1 - R. The window entry
+  // must not be later (it selects the pairs to search), and a search to
+  // t = 4 finds the contact of the two parallel cylinders at axis distance 2.
+  SimParams p = bonding_params();
+  p.geometry.boundary = Boundary::Periodic;
+  p.geometry.box_length = 10.0;
+  const Vec3 c(5, 5, 5);
+  BodyStore b = make_bodies(p, {{Shape::Linker, c, kZero, Vec3::UnitZ(), kZero},
+                                {Shape::Linker, c + Vec3(4.9, 0, 0), Vec3(1, 0, 0), Vec3::UnitZ(), kZero}});
+  b.free_all();
+  const double delta = p.run.contact_tolerance;
+  Predictor pred(b, Box{10.0, true}, delta);
+  const double R = 2.0 * b.sp(0).bounding_radius + delta;
+  EXPECT_LE(pred.window_enter(0, 1, 0.0, reference_center(b, 0, 0.0)), 5.1 - R + 1e-12);
+  const double tc = pred.pair(0, 1, 0.0, 4.0, reference_center(b, 0, 0.0));
+  EXPECT_NEAR(tc, 5.1 - 2.0 - 0.75 * delta, 0.25 * delta + 1e-12);
+}
+
 TEST(PairSearch, ProvenUntilIsAProof) {
   SimParams p = bonding_params();
   std::mt19937_64 rng(17);

@@ -17,6 +17,7 @@ using detail::axis_motion;
 using detail::concave_reach;
 using detail::own_motion;
 using detail::image_return;
+using detail::ImageReturn;
 using detail::sphere_window;
 using detail::SweptSupport;
 using detail::wall_window_impl;
@@ -110,12 +111,16 @@ void Predictor::fail(const char* what, int i, int j, double t, double reached, d
 
 double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
   // xi: i's reference point at t (its centre, or its cluster's centre of mass).
+  // In a periodic box another image may come into range first (image_return).
   const Vec3 dx = box_.min_image(reference_center(b_, j, t) - xi);
+  const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
+  const double R = reference_radius(b_, i) + reference_radius(b_, j) + delta_;
   double enter, leave;
-  if (!sphere_window(dx, reference_velocity(b_, j) - reference_velocity(b_, i),
-                     reference_radius(b_, i) + reference_radius(b_, j) + delta_, &enter, &leave))
-    return kNever;
-  return t + enter;
+  const bool open = sphere_window(dx, dv, R, &enter, &leave);
+  if (!box_.periodic || R <= image_safe_radius_) return open ? t + enter : kNever;
+  if (!open) enter = kNever;
+  const ImageReturn back(box_, dx, dv, R);
+  return t + (back.before(enter) ? back.time() : enter);
 }
 
 double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
@@ -129,12 +134,12 @@ double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
   // prove the pair free only up to the time another image can come back
   // (image_return): search on from there until the limit. (With no limit at
   // all the proof stops there; the other body, which moves, has a finite one.)
-  for (;;) {
-    const double tc = generic ? advance_generic(i, j, t, limit) : advance_pair(i, j, t, limit);
-    if (tc < kNever || !image_closed_ || proven_until_ >= limit || proven_until_ <= t || limit == kNever || failed_)
-      return tc;
+  double tc = generic ? advance_generic(i, j, t, limit) : advance_pair(i, j, t, limit);
+  while (tc == kNever && image_closed_ && proven_until_ < limit && proven_until_ > t && limit < kNever && !failed_) {
     t = proven_until_;
+    tc = generic ? advance_generic(i, j, t, limit) : advance_pair(i, j, t, limit);
   }
+  return tc;
 }
 
 ContactGeometry Predictor::contact_geometry(int i, int j, double t) const { return bound_geometry(i, j, t, kNever); }
@@ -206,12 +211,16 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
   const Vec3 dx = box_.min_image(position_at(kj, t) - position_at(ki, t));
   const Vec3 dv = kj.v - ki.v;
   const double R = si.bounding_radius + sj.bounding_radius + delta_;
-  const double back = image_return(box_, dx, dv, R);
-  proven_until_ = t + back;
-  image_closed_ = true;
+  // Where a closed window's proof ends (image_return), computed when needed.
+  auto back = [&] { return image_return(box_, dx, dv, R); };
   double enter, leave;
-  if (!sphere_window(dx, dv, R, &enter, &leave)) return kNever;
+  if (!sphere_window(dx, dv, R, &enter, &leave)) {
+    proven_until_ = t + back();
+    image_closed_ = true;
+    return kNever;
+  }
   image_closed_ = false;
+  proven_until_ = kNever;
   double s = t + enter;
   const double end = std::min(limit, t + leave);
   const double bound = dv.norm() + shape_rotation_speed(ki, si) + shape_rotation_speed(kj, sj);
@@ -221,7 +230,7 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
       // The limit reached, or the window closed (on this image; others come
       // back no earlier than `back`).
       image_closed_ = t + leave < limit;
-      proven_until_ = image_closed_ ? t + std::max(leave, back) : s;
+      proven_until_ = image_closed_ ? t + std::max(leave, back()) : s;
       return kNever;
     }
     ++ca_iterations_;

@@ -117,6 +117,11 @@ class Predictor {
   // When the bounding spheres of i and j (plus delta) first overlap, from t;
   // kNever if they never do. No contact can happen before it.
   double window_enter(int i, int j, double t, const Vec3& xi) const;
+  // Windows of radius at most this need no look at other periodic images in
+  // window_enter: the caller's limits keep the relative motion in a search
+  // shorter than the way to another image (Simulation, with the partner
+  // horizon). -infinity (the default): always look.
+  void set_image_safe_radius(double r) { image_safe_radius_ = r; }
   // Earliest wall contact of i in [t, limit) (reflective boxes).
   WallHit wall(int i, double t, double limit);
 
@@ -243,6 +248,7 @@ class Predictor {
   // The last pair search ended on a window closed on its minimum image, so
   // proven_until_ may stop short of its limit (periodic box, image_return).
   bool image_closed_ = false;
+  double image_safe_radius_ = -kNever;
 };
 
 }  // namespace ringsim

@@ -37,11 +37,14 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
   const Vec3 dx = box_.min_image(reference_center(b_, j, t) - reference_center(b_, i, t));
   const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
   const double R = reference_radius(b_, i) + reference_radius(b_, j) + delta_;
-  const double back = image_return(box_, dx, dv, R);
-  proven_until_ = std::min(known, t + back);
-  image_closed_ = t + back < known;
+  // Where a closed window's proof ends (image_return), computed when needed.
+  auto back = [&] { return image_return(box_, dx, dv, R); };
   double enter, leave;
-  if (!sphere_window(dx, dv, R, &enter, &leave)) return kNever;
+  if (!sphere_window(dx, dv, R, &enter, &leave)) {
+    proven_until_ = std::min(known, t + back());
+    image_closed_ = proven_until_ < known;
+    return kNever;
+  }
   image_closed_ = false;
   ++counts_.cluster_pair_searches;
   double s = t + enter;
@@ -54,7 +57,7 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       // The limit reached, or the window closed (on this image; others come
       // back no earlier than `back`).
       if (t + leave < limit) {
-        proven_until_ = std::min(known, t + std::max(leave, back));
+        proven_until_ = std::min(known, t + std::max(leave, back()));
         image_closed_ = proven_until_ < known;
       } else {
         proven_until_ = s;
@@ -294,14 +297,13 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
   const Vec3 dx = box_.min_image(reference_center(b_, s, t) - reference_center(b_, l, t));
   const Vec3 dv = reference_velocity(b_, s) - reference_velocity(b_, l);
   const double R = rl + rsph + rs + rc + 2.0 * delta_;
-  const double back = image_return(box_, dx, dv, R);
   double enter, leave;
   if (!sphere_window(dx, dv, R, &enter, &leave)) {
-    *resume = t + back;
+    *resume = t + image_return(box_, dx, dv, R);
     return kNever;
   }
   ++counts_.capture_searches;
-  if (t + leave < limit) *resume = t + std::max(leave, back);
+  if (t + leave < limit) *resume = t + std::max(leave, image_return(box_, dx, dv, R));
   const double stop = std::min(limit, t + leave);
   const double bound = dv.norm() + point_rotation_bound(b_, l, h) + point_rotation_bound(b_, s, 0.0);
   if (bound == 0.0) return kNever;

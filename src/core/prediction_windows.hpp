@@ -45,13 +45,23 @@ inline bool sphere_window(const Vec3& dx, const Vec3& dv, double R, double* ente
 // for good on that image only: in a periodic box of edge L another image,
 // dx + dv s - L k with k a non-zero integer vector, comes within R no earlier
 // than |dv| s >= min_c (L - |dx_c|) - R, since some component of dx - L k has
-// magnitude at least L - |dx_c| >= L/2. Relative time; kNever in a closed box
-// or without relative motion; 0 when nothing can be said (R >= L/2).
+// magnitude at least L - |dx_c| >= L/2. (|dv| is bounded by its 1-norm: no
+// square root on a path taken for every neighbour.)
+struct ImageReturn {
+  double gap = 0.0, speed = 0.0;  // the return is no earlier than gap / speed
+  ImageReturn(const Box& box, const Vec3& dx, const Vec3& dv, double R) {
+    if (!box.periodic) return;
+    gap = std::max(0.0, box.length - dx.cwiseAbs().maxCoeff() - R);
+    speed = dv.cwiseAbs().sum();
+  }
+  // Relative time; kNever in a closed box or without relative motion; 0 when
+  // nothing can be said (R >= L/2).
+  double time() const { return speed > 0.0 ? gap / speed : kNever; }
+  // Whether it comes before relative time s (s may be kNever).
+  bool before(double s) const { return speed > 0.0 && gap < s * speed; }
+};
 inline double image_return(const Box& box, const Vec3& dx, const Vec3& dv, double R) {
-  const double speed = dv.norm();
-  if (!box.periodic || speed == 0.0) return kNever;
-  const double gap = box.length - dx.cwiseAbs().maxCoeff() - R;
-  return gap > 0.0 ? gap / speed : 0.0;
+  return ImageReturn(box, dx, dv, R).time();
 }
 
 // The window in which a body whose reference point moves linearly (x + v s

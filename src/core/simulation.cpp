@@ -74,6 +74,15 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
                                 " with geometry.boundary = periodic (twice the interaction range, minimum image)");
   const double cell = std::max(range, params.run.cell_size);
   grid_ = CellGrid(box_.length, cell, n, box_.periodic);
+  if (params.run.partner_horizon) {
+    // A pair search ends by the next event of either body, and a body's next
+    // event comes before its reference point has moved sqrt(3) cell widths (a
+    // free body: its cell's diagonal; a member: one width, its horizon). So in
+    // a search the relative motion stays below 2 sqrt(3) w, and another image,
+    // at least L/2 - R away, cannot come within R when that is longer.
+    const double w = grid_.cell_width();
+    predictor_.set_image_safe_radius(0.5 * box_.length - 2.0 * (std::sqrt(3.0) * w + Predictor::cell_slack()) - 1e-9 * box_.length);
+  }
   events_.assign(n, Event{});
   bodies_.counter.assign(n, 0);
   bodies_.last_collision.assign(n, -kNever);
