@@ -297,6 +297,29 @@ TEST(Validation, PeriodicFrictionalInelasticRunKeepsMomentumAndNoOverlap) {
   EXPECT_GT(run.stats.stick + run.stats.slide, 100);
 }
 
+TEST(Validation, SmallPeriodicBoxTwoCellsASideNoOverlap) {
+  // 12 spheres and 12 linkers in a periodic box of edge 12: two cells a side,
+  // so a pair that parts on one image meets again on the next within a few
+  // time units, inside one search and between two predictions of the pair.
+  // Before the image-return fixes of 2026-11-25 every seed overlapped within
+  // ~150 events (the pair memo, the window entry, the capsule search and the
+  // spheres' closed form all trusted the minimum image of their start).
+  SimParams p;
+  p.bonding.enabled = false;  // hard-body dynamics
+  p.geometry.boundary = Boundary::Periodic;
+  p.init.spheres = 12;
+  p.init.linkers = 12;
+  p.geometry.box_length = 12.0;
+  p.run.t_max = 1e9;
+  p.run.max_events = 8000;
+  for (std::uint64_t seed : {1, 2}) {
+    const ValidatedRun run = validated_run(p, seed);
+    EXPECT_EQ(run.report.overlaps, 0) << "seed " << seed;
+    EXPECT_LT(run.report.max_energy_error, 1e-12) << "seed " << seed;
+    EXPECT_GT(run.stats.collisions, 3000) << "seed " << seed;
+  }
+}
+
 // Linker 0 at rest; linker 1, offset by (3.2, 3, 0) and moving at (1, vy, 0),
 // passes it within the bounding-sphere window without touching (lateral
 // offset > 2 r_L), goes once round the periodic box and comes back with the

@@ -84,10 +84,27 @@ FeatureNormal feature_at(const Vec3& p, const Vec3& center, const Vec3& axis, co
 
 }  // namespace
 
-double Predictor::sphere_sphere(int i, int j, double t, const Vec3& xi) const {
+double Predictor::sphere_sphere(int i, int j, double t, const Vec3& xi, double limit) const {
   const Kinematics &ki = b_.kin[i], &kj = b_.kin[j];
-  const Vec3 dx = box_.min_image(position_at(kj, t) - xi);
-  return t + sphere_touch_time(dx, kj.v - ki.v, b_.sp(i).radius + b_.sp(j).radius);
+  const Vec3 dv = kj.v - ki.v;
+  const double sigma = b_.sp(i).radius + b_.sp(j).radius;
+  Vec3 dx = box_.min_image(position_at(kj, t) - xi);
+  double s = sphere_touch_time(dx, dv, sigma);
+  if (!box_.periodic || limit == kNever) return t + s;
+  // In a periodic box another image may touch first, but not before
+  // image_return: solve again from there, on the relative position carried
+  // along the line and reduced to its nearest image, while that comes before
+  // the contact found and the limit. (With no limit the other body, which
+  // moves and has one, covers the rest.)
+  for (double s0 = 0.0;;) {
+    const ImageReturn back(box_, dx, dv, sigma);
+    if (back.gap == 0.0 || !back.before(std::min(s, limit - t) - s0)) return t + s;
+    const double ds = back.time();
+    s0 += ds;
+    dx += ds * dv;
+    for (int c = 0; c < 3; ++c) dx[c] -= box_.length * std::nearbyint(dx[c] / box_.length);
+    s = s0 + sphere_touch_time(dx, dv, sigma);
+  }
 }
 
 void Predictor::fail(const char* what, int i, int j, double t, double reached, double gap, double bound) {
@@ -126,7 +143,7 @@ double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
 double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
   const bool generic = in_cluster(b_, i) || in_cluster(b_, j);
   if (!generic && b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) {
-    const double tc = sphere_sphere(i, j, t, xi);
+    const double tc = sphere_sphere(i, j, t, xi, limit);
     proven_until_ = tc;
     return tc < limit ? tc : kNever;
   }

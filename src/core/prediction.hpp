@@ -206,8 +206,9 @@ class Predictor {
   double capsule_far() const { return std::max(kCapsuleFar, 1e3 * delta_); }
   static constexpr double kCapsuleFar = 0.02;
   // Two free spheres: their first contact at or after t, closed form (xi:
-  // i's centre at t); kNever if none.
-  double sphere_sphere(int i, int j, double t, const Vec3& xi) const;
+  // i's centre at t); kNever if none. In a periodic box exact up to `limit`
+  // on every image (beyond it, on the minimum image of t only).
+  double sphere_sphere(int i, int j, double t, const Vec3& xi, double limit) const;
   double advance_pair(int i, int j, double t, double limit);
   bool wall_window(double x, double v, int dir, double reach, double t, double* start, double* end) const;
   // Pairs and walls with a cluster member: plain conservative advancement with
