@@ -302,7 +302,7 @@ TEST(Validation, SmallPeriodicBoxTwoCellsASideNoOverlap) {
   // so a pair that parts on one image meets again on the next within a few
   // time units, inside one search and between two predictions of the pair.
   // Before the image-return fixes of 2026-11-25 every seed overlapped within
-  // ~150 events (the pair memo, the window entry, the capsule search and the
+  // ~150 events (the pair memo, the window entry, the pair search and the
   // spheres' closed form all trusted the minimum image of their start).
   SimParams p;
   p.bonding.enabled = false;  // hard-body dynamics
@@ -317,6 +317,16 @@ TEST(Validation, SmallPeriodicBoxTwoCellsASideNoOverlap) {
     EXPECT_EQ(run.report.overlaps, 0) << "seed " << seed;
     EXPECT_LT(run.report.max_energy_error, 1e-12) << "seed " << seed;
     EXPECT_GT(run.stats.collisions, 3000) << "seed " << seed;
+  }
+  // A gas of 12 spheres: box 7 has 3 cells a side (the general path; the gas
+  // path overlapped there), box 8.5 has 4 (the gas path, exact from 4 on).
+  p.init.linkers = 0;
+  for (double box : {7.0, 8.5}) {
+    p.geometry.box_length = box;
+    const ValidatedRun run = validated_run(p, 3);
+    EXPECT_EQ(run.report.overlaps, 0) << "box " << box;
+    EXPECT_LT(run.report.max_energy_error, 1e-12) << "box " << box;
+    EXPECT_GT(run.stats.collisions, 1000) << "box " << box;
   }
 }
 

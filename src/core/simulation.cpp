@@ -99,7 +99,14 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   for (int g = 0; g < static_cast<int>(cgroups_.size()); ++g)
     if (cgroups_[g].alive && cgroups_[g].pending && termination_ == Termination::Running) begin_slice(g, 0.0);
   const int k_max = params_.run.sphere_candidates;
-  sphere_gas_ = k_max > 0 && !params_.bonding.enabled && n_spheres_ == n;
+  // The gas keeps each pair's closed form from the scan that saw the pair come
+  // into its neighbourhood, on the minimum image of then. In a periodic box
+  // that stays right while a pair that changes images must first leave the
+  // neighbourhood and re-enter it (a new scan): at least 4 cells a side. With
+  // fewer, the neighbourhood is the whole box: the general path, whose closed
+  // form follows the images (Predictor::sphere_sphere).
+  sphere_gas_ = k_max > 0 && !params_.bonding.enabled && n_spheres_ == n &&
+                (!box_.periodic || grid_.cells_per_side() >= 4);
   smooth_gas_ = sphere_gas_ && n > 0 && bodies_.sp(0).static_friction == 0.0 && bodies_.sp(0).dynamic_friction == 0.0;
   if (sphere_gas_) {
     sphere_list_.assign(static_cast<std::size_t>(n) * k_max, SphereCandidate{kNever, -1, 0});
