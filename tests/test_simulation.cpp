@@ -276,19 +276,25 @@ TEST(Validation, DefaultBoxHundredThousandEventsNoOverlapElastic) {
   EXPECT_GT(run.stats.collisions, 10000);
 }
 
-TEST(Validation, PeriodicFrictionalInelasticRunKeepsMomentumAndNoOverlap) {
+// Hard bodies (no bonding) in a periodic box, run for a number of events.
+SimParams periodic_hard_bodies(int spheres, int linkers, double box, std::int64_t events) {
   SimParams p;
-  p.bonding.enabled = false;  // hard-body dynamics
+  p.bonding.enabled = false;
   p.geometry.boundary = Boundary::Periodic;
+  p.init.spheres = spheres;
+  p.init.linkers = linkers;
+  p.geometry.box_length = box;
+  p.run.t_max = 1e9;
+  p.run.max_events = events;
+  return p;
+}
+
+TEST(Validation, PeriodicFrictionalInelasticRunKeepsMomentumAndNoOverlap) {
+  SimParams p = periodic_hard_bodies(150, 150, 35.0, 20000);
   p.contact.restitution_sphere = 0.8;
   p.contact.restitution_linker = 0.9;
   p.contact.static_friction_sphere = p.contact.static_friction_linker = 0.4;
   p.contact.dynamic_friction_sphere = p.contact.dynamic_friction_linker = 0.3;
-  p.init.spheres = 150;
-  p.init.linkers = 150;
-  p.geometry.box_length = 35.0;
-  p.run.t_max = 1e9;
-  p.run.max_events = 20000;
   const ValidatedRun run = validated_run(p, 9);
   EXPECT_EQ(run.report.overlaps, 0);
   EXPECT_LT(run.report.max_momentum_error, 1e-12);
@@ -304,14 +310,7 @@ TEST(Validation, SmallPeriodicBoxTwoCellsASideNoOverlap) {
   // Before the image-return fixes of 2026-11-25 every seed overlapped within
   // ~150 events (the pair memo, the window entry, the pair search and the
   // spheres' closed form all trusted the minimum image of their start).
-  SimParams p;
-  p.bonding.enabled = false;  // hard-body dynamics
-  p.geometry.boundary = Boundary::Periodic;
-  p.init.spheres = 12;
-  p.init.linkers = 12;
-  p.geometry.box_length = 12.0;
-  p.run.t_max = 1e9;
-  p.run.max_events = 8000;
+  SimParams p = periodic_hard_bodies(12, 12, 12.0, 8000);
   for (std::uint64_t seed : {1, 2}) {
     const ValidatedRun run = validated_run(p, seed);
     EXPECT_EQ(run.report.overlaps, 0) << "seed " << seed;
