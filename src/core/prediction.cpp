@@ -16,7 +16,7 @@ namespace ringsim {
 using detail::axis_motion;
 using detail::concave_reach;
 using detail::own_motion;
-using detail::image_return;
+using detail::closed_window_end;
 using detail::ImageReturn;
 using detail::sphere_window;
 using detail::SweptSupport;
@@ -91,11 +91,11 @@ double Predictor::sphere_sphere(int i, int j, double t, const Vec3& xi, double l
   Vec3 dx = box_.min_image(position_at(kj, t) - xi);
   double s = sphere_touch_time(dx, dv, sigma);
   if (!box_.periodic || limit == kNever) return t + s;
-  // In a periodic box another image may touch first, but not before
-  // image_return: solve again from there, on the relative position carried
-  // along the line and reduced to its nearest image, while that comes before
-  // the contact found and the limit. (With no limit the other body, which
-  // moves and has one, covers the rest.)
+  // In a periodic box another image may touch first, but not before its
+  // return (ImageReturn): solve again from there, on the relative position
+  // carried along the line and reduced to its nearest image, while that comes
+  // before the contact found and the limit. (With no limit the other body,
+  // which moves and has one, covers the rest.)
   for (double s0 = 0.0;;) {
     const ImageReturn back(box_, dx, dv, sigma);
     if (back.gap == 0.0 || !back.before(std::min(s, limit - t) - s0)) return t + s;
@@ -128,7 +128,7 @@ void Predictor::fail(const char* what, int i, int j, double t, double reached, d
 
 double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
   // xi: i's reference point at t (its centre, or its cluster's centre of mass).
-  // In a periodic box another image may come into range first (image_return).
+  // In a periodic box another image may come into range first (ImageReturn).
   const Vec3 dx = box_.min_image(reference_center(b_, j, t) - xi);
   const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
   const double R = reference_radius(b_, i) + reference_radius(b_, j) + delta_;
@@ -147,16 +147,9 @@ double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
     proven_until_ = tc;
     return tc < limit ? tc : kNever;
   }
-  // A search follows the minimum image of its start. In a periodic box it may
-  // prove the pair free only up to the time another image can come back
-  // (image_return): search on from there until the limit. (With no limit at
-  // all the proof stops there; the other body, which moves, has a finite one.)
-  double tc = generic ? advance_generic(i, j, t, limit) : advance_pair(i, j, t, limit);
-  while (tc == kNever && image_closed_ && proven_until_ < limit && proven_until_ > t && limit < kNever && !failed_) {
-    t = proven_until_;
-    tc = generic ? advance_generic(i, j, t, limit) : advance_pair(i, j, t, limit);
-  }
-  return tc;
+  return across_images(t, limit, [&](double from) {
+    return generic ? advance_generic(i, j, from, limit) : advance_pair(i, j, from, limit);
+  });
 }
 
 ContactGeometry Predictor::contact_geometry(int i, int j, double t) const { return bound_geometry(i, j, t, kNever); }
@@ -228,11 +221,9 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
   const Vec3 dx = box_.min_image(position_at(kj, t) - position_at(ki, t));
   const Vec3 dv = kj.v - ki.v;
   const double R = si.bounding_radius + sj.bounding_radius + delta_;
-  // Where a closed window's proof ends (image_return), computed when needed.
-  auto back = [&] { return image_return(box_, dx, dv, R); };
   double enter, leave;
   if (!sphere_window(dx, dv, R, &enter, &leave)) {
-    proven_until_ = t + back();
+    proven_until_ = closed_window_end(box_, dx, dv, R, t, 0.0);
     image_closed_ = true;
     return kNever;
   }
@@ -244,10 +235,9 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
   if (bound == 0.0) return kNever;  // rigidly fixed relative pose: the gap never changes
   for (int step = 0; step < kMaxSteps; ++step) {
     if (s >= end) {
-      // The limit reached, or the window closed (on this image; others come
-      // back no earlier than `back`).
+      // The limit reached, or the window closed (on this image only).
       image_closed_ = t + leave < limit;
-      proven_until_ = image_closed_ ? t + std::max(leave, back()) : s;
+      proven_until_ = image_closed_ ? closed_window_end(box_, dx, dv, R, t, leave) : s;
       return kNever;
     }
     ++ca_iterations_;

@@ -186,7 +186,7 @@ class Predictor {
   // so the proof often reaches beyond the limit; the pair memo
   // (Simulation::memo_pair) keeps it, so a later prediction with a later
   // horizon resumes from there. In a periodic box a closed window proves the
-  // pair free only until another image can come back (image_return); with no
+  // pair free only until another image can come back (ImageReturn); with no
   // limit (kNever) the proof may end there, below the limit. (Two free
   // spheres, a closed form on the minimum image, are not for the memo.)
   double proven_until() const { return proven_until_; }
@@ -214,9 +214,22 @@ class Predictor {
   // Pairs and walls with a cluster member: plain conservative advancement with
   // the reference-motion bounds of core/pose.hpp.
   double advance_generic(int i, int j, double t, double limit);
-  // capture() on the minimum image of t; when the window closes before the
-  // limit, *resume is where the search must go on (image_return).
-  double capture_on_image(int l, int end, int s, double t, double limit, double rc, double* resume);
+  // capture() on the minimum image of t (sets image_closed_, proven_until_
+  // as the pair searches do).
+  double capture_on_image(int l, int end, int s, double t, double limit, double rc);
+  // A search on the minimum image of its start, search(from), run again from
+  // where its proof ends while it ends on a window closed before `limit`: in a
+  // periodic box another image can come back (ImageReturn). With no limit at
+  // all the proof stops there; the other body, which moves, has a finite one.
+  template <class Search>
+  double across_images(double t, double limit, Search search) {
+    double tc = search(t);
+    while (tc == kNever && image_closed_ && proven_until_ < limit && proven_until_ > t && limit < kNever && !failed_) {
+      t = proven_until_;
+      tc = search(t);
+    }
+    return tc;
+  }
   WallHit wall_generic(int i, double t, double limit);
   // Candidate normals at a contact geometry, with their plane values: the
   // solver's normal, the feature normals of i (owner 1) and of j (owner 2), the
@@ -247,7 +260,7 @@ class Predictor {
   std::string failure_;
   double proven_until_ = 0.0;
   // The last pair search ended on a window closed on its minimum image, so
-  // proven_until_ may stop short of its limit (periodic box, image_return).
+  // proven_until_ may stop short of its limit (periodic box, ImageReturn).
   bool image_closed_ = false;
   double image_safe_radius_ = -kNever;
 };

@@ -15,7 +15,7 @@ namespace ringsim {
 
 using detail::axis_motion;
 using detail::concave_reach;
-using detail::image_return;
+using detail::closed_window_end;
 using detail::point_motion;
 using detail::PointMotion;
 using detail::quadratic_reach;
@@ -37,11 +37,9 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
   const Vec3 dx = box_.min_image(reference_center(b_, j, t) - reference_center(b_, i, t));
   const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
   const double R = reference_radius(b_, i) + reference_radius(b_, j) + delta_;
-  // Where a closed window's proof ends (image_return), computed when needed.
-  auto back = [&] { return image_return(box_, dx, dv, R); };
   double enter, leave;
   if (!sphere_window(dx, dv, R, &enter, &leave)) {
-    proven_until_ = std::min(known, t + back());
+    proven_until_ = std::min(known, closed_window_end(box_, dx, dv, R, t, 0.0));
     image_closed_ = proven_until_ < known;
     return kNever;
   }
@@ -54,10 +52,9 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
   if (bound == 0.0) return kNever;
   for (int step = 0; step < kMaxSteps; ++step) {
     if (s >= end) {
-      // The limit reached, or the window closed (on this image; others come
-      // back no earlier than `back`).
+      // The limit reached, or the window closed (on this image only).
       if (t + leave < limit) {
-        proven_until_ = std::min(known, t + std::max(leave, back()));
+        proven_until_ = std::min(known, closed_window_end(box_, dx, dv, R, t, leave));
         image_closed_ = proven_until_ < known;
       } else {
         proven_until_ = s;
@@ -276,18 +273,12 @@ double Predictor::capture_gap(int l, int end, int s, double t, double rc) const 
 
 double Predictor::capture(int l, int end, int s, double t, double limit, double rc) {
   limit = std::min({limit, motion_horizon(b_, l), motion_horizon(b_, s)});
-  // As in pair(): a window closed on the minimum image of t stays closed only
-  // until another image can come back (periodic box): search on from there.
-  // (There the gap exceeds 2 delta, so the search starts armed.)
-  for (;;) {
-    double resume = kNever;
-    const double tc = capture_on_image(l, end, s, t, limit, rc, &resume);
-    if (tc < kNever || resume >= limit || resume <= t || limit == kNever || failed_) return tc;
-    t = resume;
-  }
+  // As in pair(). (Where a closed window's proof ends the gap exceeds
+  // 2 delta, so the search from there starts armed.)
+  return across_images(t, limit, [&](double from) { return capture_on_image(l, end, s, from, limit, rc); });
 }
 
-double Predictor::capture_on_image(int l, int end, int s, double t, double limit, double rc, double* resume) {
+double Predictor::capture_on_image(int l, int end, int s, double t, double limit, double rc) {
   const double h = b_.sp(l).half_length;
   const double rs = b_.sp(s).radius;
   // Window: the end point stays within h (+ reach) of l's reference point, the
@@ -299,11 +290,14 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
   const double R = rl + rsph + rs + rc + 2.0 * delta_;
   double enter, leave;
   if (!sphere_window(dx, dv, R, &enter, &leave)) {
-    *resume = t + image_return(box_, dx, dv, R);
+    proven_until_ = closed_window_end(box_, dx, dv, R, t, 0.0);
+    image_closed_ = true;
     return kNever;
   }
   ++counts_.capture_searches;
-  if (t + leave < limit) *resume = t + std::max(leave, image_return(box_, dx, dv, R));
+  // A search that reaches `stop` below the limit ends on the closed window.
+  image_closed_ = t + leave < limit;
+  if (image_closed_) proven_until_ = closed_window_end(box_, dx, dv, R, t, leave);
   const double stop = std::min(limit, t + leave);
   const double bound = dv.norm() + point_rotation_bound(b_, l, h) + point_rotation_bound(b_, s, 0.0);
   if (bound == 0.0) return kNever;

@@ -60,8 +60,11 @@ struct ImageReturn {
   // Whether it comes before relative time s (s may be kNever).
   bool before(double s) const { return speed > 0.0 && gap < s * speed; }
 };
-inline double image_return(const Box& box, const Vec3& dx, const Vec3& dv, double R) {
-  return ImageReturn(box, dx, dv, R).time();
+// Where the proof of a window closed on the minimum image of t ends: the later
+// of its closing (relative time `leave`; 0 when it never opens) and the
+// return of another image.
+inline double closed_window_end(const Box& box, const Vec3& dx, const Vec3& dv, double R, double t, double leave) {
+  return t + std::max(leave, ImageReturn(box, dx, dv, R).time());
 }
 
 // The window in which a body whose reference point moves linearly (x + v s
