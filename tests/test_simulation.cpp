@@ -375,6 +375,81 @@ TEST(Regression, PairMeetingAgainThroughThePeriodicBoundaryIsNotSkipped) {
   }
 }
 
+// A linker turning on the spot (axis along z, turning about x) next to a
+// sphere at rest on the x axis, 3 apart: the bounding spheres overlap for
+// ever (3 < 1 + sqrt(5)), the side of the linker always faces the sphere, so
+// the gap stays 3 - r_L - r_S = 1 and no contact ever comes. Neither body
+// leaves its cell. Such a pair once had no limit at all: the sphere's first
+// prediction (its partner not yet predicted) searched 10^7 steps and the
+// replicate ended in an error after a minute (init.v_max = 0, found by a
+// validation sweep). Now every search stops by a re-check.
+TEST(Regression, LinkerTurningOnTheSpotNextToASphereAtRestIsNotSearchedForEver) {
+  for (bool partner_horizon : {true, false}) {
+    SimParams p;
+    p.bonding.enabled = false;
+    p.init.spheres = 0;
+    p.init.linkers = 0;
+    p.geometry.box_length = 20.0;
+    p.run.t_max = 200.0;
+    p.run.partner_horizon = partner_horizon;
+    const Vec3 c(8.0, 10.0, 10.0), zero = Vec3::Zero();
+    Simulation sim(p, test::make_bodies(p, {{Shape::Sphere, c, zero, Vec3::UnitZ(), zero},
+                                            {Shape::Linker, c + Vec3(3.0, 0, 0), zero, Vec3::UnitZ(), Vec3(5.0, 0, 0)}}));
+    Validator v(sim);
+    sim.set_validator(&v);
+    ASSERT_EQ(sim.run(), Termination::TimeLimit) << sim.error();
+    EXPECT_EQ(sim.stats().collisions, 0);
+    // About 140 turns at 5 rad/s: a few steps each, not millions.
+    EXPECT_LT(sim.stats().ca_steps, 100000) << "partner horizon " << partner_horizon;
+    EXPECT_GT(sim.stats().events, 0);  // the re-checks
+    EXPECT_EQ(v.report().overlaps, 0);
+  }
+}
+
+// The same pair with the sphere on the y axis, in the plane the linker turns
+// in: its end face comes round and hits the sphere within a quarter turn.
+TEST(Regression, LinkerTurningOnTheSpotHitsASphereAtRest) {
+  SimParams p;
+  p.bonding.enabled = false;
+  p.init.spheres = 0;
+  p.init.linkers = 0;
+  p.geometry.box_length = 20.0;
+  p.run.t_max = 50.0;
+  const Vec3 c(10.0, 7.0, 10.0), zero = Vec3::Zero();
+  Simulation sim(p, test::make_bodies(p, {{Shape::Sphere, c, zero, Vec3::UnitZ(), zero},
+                                          {Shape::Linker, c + Vec3(0, 3.0, 0), zero, Vec3::UnitZ(), Vec3(5.0, 0, 0)}}));
+  while (sim.stats().collisions == 0 && sim.step()) {
+  }
+  ASSERT_EQ(sim.stats().collisions, 1);
+  // Axis at angle 5 t from z towards -y: the rim point nearest the sphere
+  // reaches it between the side's gap of 1 (t = 0) and the face's (t = pi / 10).
+  EXPECT_GT(sim.time(), 0.0);
+  EXPECT_LT(sim.time(), M_PI / 10.0);
+  sim.run();
+  EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
+}
+
+// Bodies that start at rest and spin have no momentum to measure errors
+// against (a sum of |p| of 0 once gave "errors" of 1e287); collisions turn
+// their spin into translation, and the momentum stays exactly conserved.
+TEST(Validation, BodiesStartingAtRestAndSpinningKeepMomentum) {
+  SimParams p;
+  p.bonding.enabled = false;
+  p.geometry.box_length = 12.0;
+  p.init.spheres = 2;
+  p.init.linkers = 2;
+  p.init.v_max = 0.0;
+  p.init.omega_max = 20.0;
+  p.run.t_max = 10.0;
+  const ValidatedRun run = validated_run(p, 1);
+  EXPECT_EQ(run.end, Termination::TimeLimit);
+  EXPECT_GT(run.stats.collisions, 5);
+  EXPECT_EQ(run.report.overlaps, 0);
+  EXPECT_LT(run.report.max_momentum_error, 1e-12);
+  EXPECT_LT(run.report.max_angular_momentum_error, 1e-12);
+  EXPECT_LT(run.report.max_energy_error, 1e-12);
+}
+
 TEST(Regression, GrazingWallContactOfALinkerDoesNotStall) {
   // Seed 1001 of the default scene once froze at t = 442.7643: a linker in
   // the contact band (gap 3e-15) whose single support point looked separating

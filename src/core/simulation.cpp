@@ -125,10 +125,28 @@ Simulation::~Simulation() = default;
 Event Simulation::free_body_exit(int i, double t, const Vec3& xi) {
   Event e;
   e.type = EventType::CellCross;
-  const CellGrid::Exit ex = grid_.exit_time(grid_.cell_of_body(i), xi, bodies_.kin[i].v);
+  const Kinematics& k = bodies_.kin[i];
+  const CellGrid::Exit ex = grid_.exit_time(grid_.cell_of_body(i), xi, k.v);
   e.time = t + ex.dt;
   e.dim = static_cast<std::int8_t>(ex.dim);
   e.dir = static_cast<std::int8_t>(ex.dir);
+  // Every search of the body ends by its next event. A body that barely
+  // translates leaves its cell late or never, yet a turning linker's gap to a
+  // neighbour can stay small for ever (a linker spinning on the spot next to
+  // a sphere at rest), and a search over such a window takes ~window / (gap /
+  // rate) steps: with init.v_max = 0, tens of millions. So the body is
+  // re-checked (a relocation event, as for cluster members) once its fastest
+  // point could have moved kRecheckWidths cell widths; a sphere's exit always
+  // comes first (it is at most sqrt(3) w / |v| away).
+  const double speed = k.v.norm() + shape_rotation_speed(k, bodies_.sp(i));
+  if (speed > 0.0) {
+    const double recheck = t + kRecheckWidths * grid_.cell_width() / speed;
+    if (recheck < e.time) {
+      e.time = recheck;
+      e.dim = -1;
+      e.dir = 0;
+    }
+  }
   take_earlier_wall(i, t, &e);
   return e;
 }
@@ -341,7 +359,27 @@ void Simulation::predict(int i, double t) {
   // saved when the partner's trajectory changes there (docs/ARCHITECTURE.md,
   // "Prediction"). run.partner_horizon = false searches to i's own horizon.
   const bool partner_horizon = params_.run.partner_horizon;
-  auto pair_limit = [&](int j) { return partner_horizon ? std::min(best.time, events_[j].time) : best.time; };
+  // Without the partner horizon a body with no event of its own (at rest)
+  // still stops at the partner's, by the same argument: no search is endless.
+  auto pair_limit = [&](int j) {
+    return partner_horizon || best.time == kNever ? std::min(best.time, events_[j].time) : best.time;
+  };
+  // Neither body may have an event yet: i at rest (no cell exit, no
+  // re-check) and j at rest too, or not yet predicted (the first pass at
+  // t = 0). A linker turning next to a sphere at rest may then never touch
+  // it, and its search would never end: such a pair is searched until its
+  // points could have approached by kRecheckWidths cell widths, and i is
+  // re-checked there (unless an earlier event comes first).
+  double recheck = kNever;
+  auto bounded_limit = [&](int j) {
+    const double limit = pair_limit(j);
+    if (limit < kNever) return limit;
+    const double rate = (reference_velocity(bodies_, j) - reference_velocity(bodies_, i)).norm() +
+                        rotation_bound(bodies_, i) + rotation_bound(bodies_, j);
+    if (rate == 0.0) return kNever;  // a fixed relative pose: every search ends at once
+    recheck = std::min(recheck, t + kRecheckWidths * grid_.cell_width() / rate);
+    return recheck;
+  };
   // Closed forms at once; searches (pairs with a linker) later, in order of
   // their bounding-sphere entry times, so that an early contact cuts the
   // horizon of the rest before they cost anything.
@@ -372,7 +410,7 @@ void Simulation::predict(int i, double t) {
   memo_scratch_.clear();
   for (const auto& [enter, j] : candidates_) {
     if (enter >= best.time) break;
-    const double limit = pair_limit(j);
+    const double limit = bounded_limit(j);
     if (enter < limit) consider(j, memo_pair(i, j, t, limit, xi));
   }
   memo_[i].swap(memo_scratch_);
@@ -382,10 +420,11 @@ void Simulation::predict(int i, double t) {
   for (int j : capture_partners_) {
     const int l = sphere_i ? j : i, s = sphere_i ? i : j;
     if (graph_.degree(s) >= bp.sphere_valency || bp.end_valency < 1) continue;
-    if (pair_limit(j) <= t) continue;  // j is re-predicted at t and covers the pair
+    const double limit = bounded_limit(j);
+    if (limit <= t) continue;  // j is re-predicted at t and covers the pair
     for (int e = 0; e < 2; ++e) {
       if (graph_.end_bonded(l, e)) continue;
-      const double tc = predictor_.capture(l, e, s, t, pair_limit(j), bp.capture_distance);
+      const double tc = predictor_.capture(l, e, s, t, limit, bp.capture_distance);
       if (tc < best.time) {
         best.time = tc;
         best.type = EventType::Capture;
@@ -394,6 +433,12 @@ void Simulation::predict(int i, double t) {
         best.dim = static_cast<std::int8_t>(e);
       }
     }
+  }
+  if (recheck < best.time) {
+    best = Event{};
+    best.time = recheck;
+    best.type = EventType::CellCross;
+    best.dim = -1;
   }
   events_[i] = best;
   queue_->update(i, best.time);
@@ -648,7 +693,8 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
 void Simulation::process_cell(int i, const Event& ev, double t) {
   SphereScan scan = SphereScan::Full;
   if (ev.dim < 0) {
-    // A cluster member: re-file it under the cell that holds its centre.
+    // A cluster member, or a free body's re-check (free_body_exit): re-file
+    // it under the cell that holds its centre.
     Vec3 x = body_center(bodies_, i, t);
     if (box_.periodic)
       for (int d = 0; d < 3; ++d) x[d] -= box_.length * std::floor(x[d] / box_.length);

@@ -190,8 +190,10 @@ class Simulation {
   // group's own predictions cover those pairs. The queue keeps the old times
   // until then.
   void expire_group(int i, double t);
-  // A free body's own event: leaving its cell, or hitting a wall first.
+  // A free body's own event: leaving its cell, or hitting a wall first, or a
+  // re-check once its fastest point could have crossed kRecheckWidths cells.
   Event free_body_exit(int i, double t, const Vec3& xi);
+  static constexpr double kRecheckWidths = 64.0;
   // Replaces *e by i's wall hit (reflective box) if that comes first.
   void take_earlier_wall(int i, double t, Event* e);
   // Hard-sphere gas (no linkers, no bonding; run.sphere_candidates = K > 0).

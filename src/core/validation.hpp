@@ -28,6 +28,8 @@ class Simulation;
 struct ValidationReport {
   std::int64_t checks = 0;
   std::int64_t overlaps = 0;          // summed over checks
+  // Relative to the larger of the initial sum |p_i| (sum |L_i|) and the most
+  // that the initial energy could carry (Validator's constructor).
   double max_momentum_error = 0.0;
   double max_angular_momentum_error = 0.0;
   double max_energy_error = 0.0;      // elastic: |dE|/E0; inelastic: max(0, dE)/E0
@@ -52,6 +54,7 @@ class Validator {
  private:
   double slack_;
   bool elastic_;
+  double p_scale_ = 0.0, l_scale_ = 0.0;  // what the errors are relative to
   Totals initial_;
   ValidationReport report_;
 };
