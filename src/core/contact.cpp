@@ -62,12 +62,45 @@ ContactResult newton_coulomb(const Vec3& u, const Mat3& K, const Vec3& n, const 
 // -J . (u- + u+) / 2 with u+ = u- + K J (header).
 double energy_loss(const Vec3& u, const Mat3& K, const Vec3& J) { return -J.dot(u + 0.5 * (K * J)); }
 
+// Newton's restitution with Coulomb friction can put energy in where K
+// couples the normal and tangential directions (Stronge, "Impact Mechanics",
+// 2000, ch. 4: the kinematic coefficient is not energetically consistent
+// with friction; e.g. a fast-spinning linker on a rough wall). The
+// frictional impulse J and the smooth one J_s (loss >= 0 for e <= 1) give the
+// same normal velocity afterwards, -e u_n, and both lie in the friction
+// cone, so every J_s + lambda (J - J_s) does too; its loss,
+//   c - b lambda - a lambda^2, c = loss(J_s), b = D.(u + K J_s),
+//   a = D.K D / 2, D = J - J_s,
+// is concave. When J would gain energy, the largest lambda in [0, 1] that
+// loses none is taken: as much of the friction as keeps the energy.
+Vec3 without_energy_gain(const Vec3& u, const Mat3& K, const Vec3& n, const ContactLaw& law, const Vec3& J) {
+  if (energy_loss(u, K, J) >= 0.0) return J;
+  const Vec3 js = (-(1.0 + law.restitution) * n.dot(u) / n.dot(K * n)) * n;
+  const Vec3 d = J - js;
+  const double a = 0.5 * d.dot(K * d), b = d.dot(u + K * js), c = std::max(0.0, energy_loss(u, K, js));
+  // The positive root of a lambda^2 + b lambda - c = 0, in the form without
+  // cancellation (c = 0 for e = 1: lambda = -b / a when b < 0).
+  double lambda = 0.0;
+  if (a > 0.0) {
+    const double q = b + std::sqrt(b * b + 4.0 * a * c);
+    lambda = b >= 0.0 ? (q > 0.0 ? 2.0 * c / q : 0.0) : (-b + std::sqrt(b * b + 4.0 * a * c)) / (2.0 * a);
+  } else if (b > 0.0) {
+    lambda = c / b;
+  }
+  // A hair inside the root, so that rounding cannot tip the loss below 0
+  // (then only the smooth impulse would be left).
+  lambda = std::clamp(lambda * (1.0 - 1e-9), 0.0, 1.0);
+  const Vec3 blended = js + lambda * d;
+  return energy_loss(u, K, blended) >= 0.0 ? blended : js;
+}
+
 }  // namespace
 
 ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law) {
   const Vec3 u = relative_point_velocity(a, b);
   const Mat3 K = collision_matrix(a, b);
   ContactResult r = newton_coulomb(u, K, n, law);
+  if (r.mode != ContactMode::Smooth) r.impulse = without_energy_gain(u, K, n, law, r.impulse);
   if (law.min_separation > 0.0 && law.restitution >= 1.0) {
     const double top_up = floor_impulse(n.dot(u + K * r.impulse), n.dot(K * n), law);
     if (top_up > 0.0) {

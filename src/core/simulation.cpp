@@ -681,6 +681,8 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
   const ContactResult r = solve_contact(body, wall, n, law);
   stats_.lost_contacts += r.energy_loss;
   if (r.floored) ++stats_.floored;
+  if (r.mode == ContactMode::Stick) ++stats_.stick;
+  if (r.mode == ContactMode::Slide) ++stats_.slide;
   apply_impulse(i, -r.impulse, body.arm);
   ext_impulse_ -= r.impulse;
   ext_angular_ += p.cross(-r.impulse);
