@@ -289,6 +289,10 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
     bodies_.cgroup[members[k]] = id;
     cindex_[members[k]] = static_cast<int>(k);
   }
+  // Exact at t until the slice begins. Before the closure scan: from here on
+  // body_center/body_axis read the members' tracks (cgroup >= 0), and a body
+  // that was free has none yet (a default track, at the origin).
+  set_tracks(bodies_, G, nc.bodies, t, nc.bodies, t);
   // Pairs the merge put inside one cluster that are already in the capture
   // shell are checked now (MODEL.md, "Capture and bond formation"); the
   // others can still close later, when their gap falls through r_c.
@@ -322,7 +326,6 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
   G.model = nc;
   if (cluster_observer_) cluster_observer_(nc, t);
   G.integ = std::make_unique<ClusterIntegrator>(nc, t, integrator_options());
-  set_tracks(bodies_, G, nc.bodies, t, nc.bodies, t);  // exact at t until the slice begins
   G.ta = t;
   G.pending = true;
   monitor_.set(t, graph_.N_t());
