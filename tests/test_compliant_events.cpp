@@ -264,6 +264,60 @@ TEST(CompliantChain, BurstKeepsUnitAxesNearMinusZ) {
   EXPECT_LT(val.report().max_axis_error, 1e-14);
 }
 
+// A free sphere capturing one end of a free linker whose other end is far
+// outside the capture shell: the merge's ring-closure scan (MODEL.md,
+// "Capture and bond formation") must find nothing. It once read the new
+// cluster's member tracks before they were set (default tracks: every body
+// at the origin, axis z), so with r_c >= h - r_S (here 1.5 >= 2 - 1; CONFIG.md
+// allows any r_c below the linker length) it bonded the sphere to the far
+// end as well, a 1-ring. Checked at t = 0 (the initial capture) and for a
+// capture during the run.
+TEST(CompliantCapture, MergeClosureScanSeesTheBodiesWhereTheyAre) {
+  auto check_new_bonds = [](const Simulation& sim, const SimParams& p) {
+    const BodyStore& b = sim.bodies();
+    const double t = sim.time();
+    EXPECT_EQ(sim.stats().bonds, 1) << "t = " << t;
+    EXPECT_EQ(sim.stats().closure_bonds, 0) << "t = " << t;
+    EXPECT_EQ(sim.graph().observables(t).rings.count(1), 0u) << "a sphere bonded to both ends of one linker";
+    // Every bond formed now is within the capture shell (its gap at most r_c).
+    for (const Bond& bond : sim.graph().bond_log()) {
+      if (bond.t != t) continue;
+      const double h = b.sp(bond.linker).half_length;
+      const Vec3 p_end = body_center(b, bond.linker, t) + (bond.end == 0 ? h : -h) * body_axis(b, bond.linker, t);
+      const double gap = (body_center(b, bond.sphere, t) - p_end).norm() - b.sp(bond.sphere).radius;
+      EXPECT_LE(gap, p.bonding.capture_distance + 1e-9) << "bond to end " << bond.end << " at t = " << t;
+    }
+  };
+  SimParams p = compliant_params();
+  p.bonding.capture_distance = 1.5;
+  p.bonding.angle_filter = false;
+  p.bonding.coplanarity_filter = false;
+  p.run.t_max = 10.0;
+  // Linker along x, end 1 (x - h u) facing the sphere; end 0 is 4 further.
+  const double g = 0.05;
+  {
+    SCOPED_TRACE("initial capture at t = 0");
+    std::vector<Init> init = {{Shape::Sphere, Vec3(15, 20, 20), Vec3(0.3, 0.1, 0), Vec3::UnitZ(), Vec3::Zero()},
+                              {Shape::Linker, Vec3(15 + 1 + g + 2, 20, 20), Vec3::Zero(), Vec3::UnitX(), Vec3::Zero()}};
+    Simulation sim(p, make_bodies(p, init));
+    ASSERT_EQ(sim.time(), 0.0);
+    check_new_bonds(sim, p);
+  }
+  {
+    SCOPED_TRACE("capture during the run");
+    // The sphere approaches end 1 from a gap of 5.05; the capture is at gap 1.5.
+    std::vector<Init> init = {{Shape::Sphere, Vec3(10, 20, 20), Vec3(1.0, 0, 0), Vec3::UnitZ(), Vec3::Zero()},
+                              {Shape::Linker, Vec3(15 + 1 + g + 2, 20, 20), Vec3::Zero(), Vec3::UnitX(), Vec3::Zero()}};
+    Simulation sim(p, make_bodies(p, init));
+    ASSERT_EQ(sim.stats().bonds, 0);
+    while (sim.stats().bonds == 0 && sim.step()) {
+    }
+    ASSERT_NE(sim.termination(), Termination::Error) << sim.error();
+    ASSERT_GT(sim.time(), 0.0);
+    check_new_bonds(sim, p);
+  }
+}
+
 TEST(CompliantScenario, ValidationReplicateHasNoOverlapsAndIsDeterministic) {
   const SimParams p = test::scenario5_scene(25.0);  // Scenario 4 + compliant bonds
   auto once = [&](bool validate) {
