@@ -8,6 +8,7 @@
 #include "core/bond_rules.hpp"
 #include "core/cluster.hpp"
 #include "core/contact.hpp"
+#include "core/interaction_range.hpp"
 #include "core/pose.hpp"
 #include "core/motion.hpp"
 #include "core/validation.hpp"
@@ -28,12 +29,6 @@ const char* to_string(Termination t) {
 }
 
 namespace {
-double interaction_range(const BodyStore& b) {
-  double r = 0.0;
-  for (int i = 0; i < b.size(); ++i) r = std::max(r, b.sp(i).bounding_radius);
-  return 2.0 * r;
-}
-
 // The bond graph numbers spheres first, then linkers (as build_scene does).
 int count_spheres(const BodyStore& b, bool bonding) {
   int n = 0;
@@ -47,13 +42,6 @@ int count_spheres(const BodyStore& b, bool bonding) {
 }
 }  // namespace
 
-double Simulation::capture_range() const {
-  // Largest centre distance of a linker and a sphere at capture: h + r_S + r_c.
-  if (!params_.bonding.enabled) return 0.0;
-  const Species &s = bodies_.species[0], &l = bodies_.species[1];
-  return l.half_length + s.radius + params_.bonding.capture_distance;
-}
-
 Simulation::Simulation(const SimParams& params, BodyStore bodies)
     : params_(params),
       bodies_(std::move(bodies)),
@@ -65,12 +53,15 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
       monitor_(params.run.sample_interval, static_cast<std::size_t>(params.run.mser_min_samples),
                static_cast<std::size_t>(params.run.mser_check_every), static_cast<std::size_t>(params.run.mser_batch)) {
   const int n = bodies_.size();
-  // Cluster members (bonding only) may stray cell_slack outside their cell.
-  const double range = std::max(interaction_range(bodies_), capture_range()) + 2.0 * params.run.contact_tolerance +
-                       (params.bonding.enabled ? 2.0 * Predictor::cell_slack() : 0.0);
-  if (box_.periodic && 2.0 * range >= box_.length)
+  // Contacts, captures and the cell slack of cluster members, of the species
+  // present (core/interaction_range.hpp). Loading refuses a smaller periodic
+  // box with the same function (ensemble/config.cpp); this is the safety net
+  // for settings built in code.
+  const InteractionRange reach = interaction_range(params, bodies_);
+  const double range = reach.range();
+  if (box_.periodic && !(box_.length > reach.periodic_min_box()))
     throw std::invalid_argument("geometry.box_length = " + std::to_string(box_.length) + ": must be > " +
-                                std::to_string(2.0 * range) +
+                                std::to_string(reach.periodic_min_box()) +
                                 " with geometry.boundary = periodic (twice the interaction range, minimum image)");
   const double cell = std::max(range, params.run.cell_size);
   grid_ = CellGrid(box_.length, cell, n, box_.periodic);

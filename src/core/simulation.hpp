@@ -233,7 +233,6 @@ class Simulation {
   void form_bond(int s, int l, int end, double t);
   void check_initial_captures();
   bool bond_possible() const;
-  double capture_range() const;
   void process_collision(int i, int j, double t);
   // The contact law of pair (i, j) at t: combined restitution and friction,
   // the TC rule (counted) and the separation floor.
