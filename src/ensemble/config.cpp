@@ -1,6 +1,7 @@
 #include "ensemble/config.hpp"
 
 #include "analysis/mser.hpp"
+#include "core/interaction_range.hpp"
 
 // Loading works in three steps, all driven by one table of key descriptors:
 //   1. parse the TOML text (syntax errors: source:line:column);
@@ -274,7 +275,8 @@ const std::vector<KeyDesc>& key_table() {
       key<&S::geometry, &G::linker_length>("geometry.linker_length", greater(0),
           "linker axial length l_L, end face to end face"),
       key<&S::geometry, &G::box_length>("geometry.box_length", greater(0),
-          "edge l_B of the cubic box [0, l_B]^3; must exceed twice the largest body bounding radius"),
+          "edge l_B of the cubic box [0, l_B]^3; must exceed twice the largest body bounding radius "
+          "(periodic: twice the interaction range)"),
       key<&S::geometry, &G::boundary>("geometry.boundary", any(),
           "walls: reflective (impulse with restitution_wall) or periodic (minimum image)"),
       key<&S::geometry, &G::density>("geometry.density", greater(0),
@@ -702,20 +704,30 @@ void check_cross(const SimParams& p, const Origins& origins, Problems& problems)
     which = "linker bounding radius sqrt(geometry.linker_radius^2 + (geometry.linker_length/2)^2) = " +
             format_real(r_linker);
   }
-  // A periodic box must exceed twice the interaction range (2 R_max plus the
-  // contact band 2 delta) for the minimum-image convention to hold.
-  const double periodic_min = 2.0 * (2.0 * r_max + 2.0 * p.run.contact_tolerance);
+  // A periodic box must exceed twice the interaction range of the species
+  // present for the minimum-image convention to hold: the run's own bound
+  // (core/interaction_range.hpp), so a box accepted here also runs.
+  const InteractionRange reach = interaction_range(p);
+  const double periodic_min = reach.periodic_min_box();
   if (!(p.geometry.box_length > 2.0 * r_max)) {
     problems.add(2, 0, 0,
                  origin(origins, "geometry.box_length") + "geometry.box_length = " +
                      format_real(p.geometry.box_length) + ": must be > 2 x the largest body bounding radius = " +
                      format_real(2.0 * r_max) + " (" + which + ")");
   } else if (p.geometry.boundary == Boundary::Periodic && !(p.geometry.box_length > periodic_min)) {
+    std::string terms = reach.capture > reach.contact
+                            ? "capture range geometry.linker_length/2 + geometry.sphere_radius + "
+                              "bonding.capture_distance = " + format_real(reach.capture)
+                            : "2 x " + which;
+    terms += " + 2 x run.contact_tolerance";
+    if (reach.slack > 0.0)
+      terms += " + 2 x cell slack " + format_real(0.5 * reach.slack) + " of bonded clusters (bonding.enabled)";
+    std::string where = origin(origins, "geometry.box_length");
+    if (where.empty()) where = origin(origins, "geometry.boundary");
     problems.add(2, 0, 0,
-                 origin(origins, "geometry.box_length") + "geometry.box_length = " +
-                     format_real(p.geometry.box_length) + ": must be > " + format_real(periodic_min) +
-                     " with geometry.boundary = periodic (twice the interaction range 2 x (2 x " + which +
-                     " + 2 x run.contact_tolerance), for the minimum-image convention)");
+                 where + "geometry.box_length = " + format_real(p.geometry.box_length) + ": must be > " +
+                     format_real(periodic_min) + " with geometry.boundary = periodic (twice the interaction range " +
+                     "2 x (" + terms + "), for the minimum-image convention)");
   }
 
   // The capture band is a thin shell at an end face: with r_c >= l_L one end
