@@ -5,14 +5,19 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "core/interaction_range.hpp"
+#include "core/scene.hpp"
+#include "core/simulation.hpp"
 #include "ensemble/config.hpp"
 
 namespace ringsim {
@@ -475,6 +480,95 @@ TEST(Config, BoxMustHoldLargestBody) {
   EXPECT_CONTAINS(e2, "sphere");
   // Only species that are present count.
   EXPECT_NO_THROW(load_config("[geometry]\nbox_length = 3\n[init]\nlinkers = 0", {}, "x"));
+}
+
+// ---- periodic minimum box (core/interaction_range.hpp) ---------------------------
+
+// Shortest round-trip text of x (the form messages and --set use).
+std::string shortest(double x) {
+  char buf[64];
+  const auto res = std::to_chars(buf, buf + sizeof buf, x);
+  return std::string(buf, res.ptr);
+}
+
+// One sphere and one linker of the default shapes (bonding on) in a periodic
+// box of edge `box`, as --set overrides.
+std::vector<std::string> periodic_pair(double box) {
+  return {"geometry.boundary=periodic", "init.spheres=1", "init.linkers=1", "geometry.box_length=" + shortest(box)};
+}
+
+TEST(PeriodicMinimum, DefaultShapesCountContactCaptureToleranceAndSlack) {
+  SimParams p;
+  p.geometry.boundary = Boundary::Periodic;
+  const InteractionRange r = interaction_range(p);
+  // 2 x (2 sqrt(1 + 2^2) + 2 delta + 2 x 0.01): the linker's bounding sphere
+  // (4.472) beats the capture range h + r_S + r_c = 3.1.
+  EXPECT_DOUBLE_EQ(r.contact, 2.0 * std::sqrt(5.0));
+  EXPECT_DOUBLE_EQ(r.capture, 3.1);
+  EXPECT_DOUBLE_EQ(r.periodic_min_box(), 2.0 * (2.0 * std::sqrt(5.0) + 2e-9 + 0.02));
+  EXPECT_NEAR(r.periodic_min_box(), 8.984271914, 1e-9);
+  // Without bonding no capture and no cluster slack: 2 x (4.472 + 2 delta).
+  p.bonding.enabled = false;
+  EXPECT_NEAR(interaction_range(p).periodic_min_box(), 8.944271914, 1e-9);
+}
+
+TEST(PeriodicMinimum, BoxJustAboveLoadsAndTheSimulationConstructs) {
+  const double min = interaction_range(load_config("", periodic_pair(50.0), "x")).periodic_min_box();
+  const double above = std::nextafter(min, 2.0 * min);
+  SimParams p;
+  ASSERT_NO_THROW(p = load_config("", periodic_pair(above), "x"));
+  EXPECT_EQ(p.geometry.box_length, above);
+  EXPECT_NO_THROW(validate(p));
+  EXPECT_NO_THROW(Simulation(p, build_scene(p, 1, 0, nullptr)));
+  // The fuzz sweep's box, 8.95, lies between the old documented minimum
+  // (8.944) and the run's: now a configuration error, not a run-time one.
+  EXPECT_CONTAINS(error_of("", periodic_pair(8.95)), "geometry.box_length = 8.95: must be > " + shortest(min));
+}
+
+TEST(PeriodicMinimum, BoxJustBelowIsAConfigErrorNamingKeyValueAndBound) {
+  const double min = interaction_range(load_config("", periodic_pair(50.0), "x")).periodic_min_box();
+  const double below = std::nextafter(min, 0.0);
+  const std::string e = error_of("", periodic_pair(below));
+  EXPECT_CONTAINS(e, "--set: geometry.box_length = " + shortest(below) + ": must be > " + shortest(min) +
+                         " with geometry.boundary = periodic (twice the interaction range");
+  EXPECT_CONTAINS(e, "linker bounding radius");
+  EXPECT_CONTAINS(e, "cell slack");
+  // Settings built in code: validate() refuses them, and the Simulation's own
+  // check (the safety net) draws the line at the same place.
+  SimParams p = load_config("", periodic_pair(50.0), "x");
+  const BodyStore bodies = build_scene(p, 1, 0, nullptr);
+  p.geometry.box_length = below;
+  EXPECT_THROW(validate(p), ConfigError);
+  EXPECT_THROW(Simulation(p, bodies), std::invalid_argument);
+  // A capture range longer than the linker's bounding sphere sets the bound.
+  const std::string e2 = error_of("", {"geometry.boundary=periodic", "geometry.linker_radius=0.1",
+                                       "bonding.capture_distance=3.9", "geometry.box_length=13.8"});
+  EXPECT_CONTAINS(e2, "geometry.box_length = 13.8: must be > 13.84");
+  EXPECT_CONTAINS(e2, "capture range");
+}
+
+TEST(PeriodicMinimum, SpheresOnlyBoxIsNotConstrainedByAbsentLinkers) {
+  // Long linkers (bounding radius 10.05, capture range 11.1), none present:
+  // only the spheres count, 2 x (2 r_S + 2 delta) = 4.000000004.
+  const std::vector<std::string> set = {"geometry.boundary=periodic", "init.spheres=2", "init.linkers=0",
+                                        "geometry.linker_length=20", "geometry.box_length=10"};
+  SimParams p;
+  ASSERT_NO_THROW(p = load_config("", set, "x"));
+  EXPECT_TRUE(p.bonding.enabled);
+  const InteractionRange r = interaction_range(p);
+  EXPECT_DOUBLE_EQ(r.periodic_min_box(), 2.0 * (2.0 + 2e-9));
+  EXPECT_EQ(r.capture, 0.0);
+  EXPECT_EQ(r.slack, 0.0);
+  EXPECT_NO_THROW(Simulation(p, build_scene(p, 1, 0, nullptr)));
+  EXPECT_CONTAINS(error_of("", {"geometry.boundary=periodic", "init.spheres=2", "init.linkers=0",
+                                "geometry.linker_length=20", "geometry.box_length=4"}),
+                  "geometry.box_length = 4: must be > 4.000000004");
+  // Linkers only: no capture range either (3.9 + 2 + 1 = 6.9 > 2 x 2.0025).
+  const std::vector<std::string> linkers = {"geometry.boundary=periodic", "init.spheres=0", "init.linkers=2",
+                                            "geometry.linker_radius=0.1", "bonding.capture_distance=3.9",
+                                            "geometry.box_length=9"};
+  ASSERT_NO_THROW(p = load_config("", linkers, "x"));
+  EXPECT_NO_THROW(Simulation(p, build_scene(p, 1, 0, nullptr)));
 }
 
 // ---- types ----------------------------------------------------------------------

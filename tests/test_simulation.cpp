@@ -718,7 +718,7 @@ TEST(Cli, BadInputIsRejectedNamingKeyValueAndRange) {
   EXPECT_EQ(c.status, 2);
   EXPECT_NE(c.out.find("packing fraction"), std::string::npos) << c.out;
   c = run_cli("replicate --seed 1 --set geometry.boundary=periodic --set geometry.box_length=8.5");
-  EXPECT_EQ(c.status, 1);  // > 2 R (4.47) but not > 2 x the interaction range (8.94)
+  EXPECT_EQ(c.status, 1);  // > 2 R (4.47) but not > 2 x the interaction range (8.98)
   EXPECT_NE(c.out.find("geometry.box_length = 8.5"), std::string::npos) << c.out;
   EXPECT_NE(c.out.find("periodic"), std::string::npos) << c.out;
   c = run_cli("replicate");  // --seed is required
