@@ -383,18 +383,24 @@ TEST(Regression, PairMeetingAgainThroughThePeriodicBoundaryIsNotSkipped) {
 // prediction (its partner not yet predicted) searched 10^7 steps and the
 // replicate ended in an error after a minute (init.v_max = 0, found by a
 // validation sweep). Now every search stops by a re-check.
+// A sphere at rest at c and, at c + offset, a linker at rest with its axis
+// along z, turning about x at 5 rad/s; hard bodies in a closed box of 20.
+Simulation sphere_beside_turning_linker(const Vec3& c, const Vec3& offset, double t_max, bool partner_horizon) {
+  SimParams p;
+  p.bonding.enabled = false;
+  p.init.spheres = 0;
+  p.init.linkers = 0;
+  p.geometry.box_length = 20.0;
+  p.run.t_max = t_max;
+  p.run.partner_horizon = partner_horizon;
+  const Vec3 zero = Vec3::Zero();
+  return Simulation(p, test::make_bodies(p, {{Shape::Sphere, c, zero, Vec3::UnitZ(), zero},
+                                             {Shape::Linker, c + offset, zero, Vec3::UnitZ(), Vec3(5.0, 0, 0)}}));
+}
+
 TEST(Regression, LinkerTurningOnTheSpotNextToASphereAtRestIsNotSearchedForEver) {
   for (bool partner_horizon : {true, false}) {
-    SimParams p;
-    p.bonding.enabled = false;
-    p.init.spheres = 0;
-    p.init.linkers = 0;
-    p.geometry.box_length = 20.0;
-    p.run.t_max = 200.0;
-    p.run.partner_horizon = partner_horizon;
-    const Vec3 c(8.0, 10.0, 10.0), zero = Vec3::Zero();
-    Simulation sim(p, test::make_bodies(p, {{Shape::Sphere, c, zero, Vec3::UnitZ(), zero},
-                                            {Shape::Linker, c + Vec3(3.0, 0, 0), zero, Vec3::UnitZ(), Vec3(5.0, 0, 0)}}));
+    Simulation sim = sphere_beside_turning_linker(Vec3(8, 10, 10), Vec3(3, 0, 0), 200.0, partner_horizon);
     Validator v(sim);
     sim.set_validator(&v);
     ASSERT_EQ(sim.run(), Termination::TimeLimit) << sim.error();
@@ -409,15 +415,7 @@ TEST(Regression, LinkerTurningOnTheSpotNextToASphereAtRestIsNotSearchedForEver) 
 // The same pair with the sphere on the y axis, in the plane the linker turns
 // in: its end face comes round and hits the sphere within a quarter turn.
 TEST(Regression, LinkerTurningOnTheSpotHitsASphereAtRest) {
-  SimParams p;
-  p.bonding.enabled = false;
-  p.init.spheres = 0;
-  p.init.linkers = 0;
-  p.geometry.box_length = 20.0;
-  p.run.t_max = 50.0;
-  const Vec3 c(10.0, 7.0, 10.0), zero = Vec3::Zero();
-  Simulation sim(p, test::make_bodies(p, {{Shape::Sphere, c, zero, Vec3::UnitZ(), zero},
-                                          {Shape::Linker, c + Vec3(0, 3.0, 0), zero, Vec3::UnitZ(), Vec3(5.0, 0, 0)}}));
+  Simulation sim = sphere_beside_turning_linker(Vec3(10, 7, 10), Vec3(0, 3, 0), 50.0, true);
   while (sim.stats().collisions == 0 && sim.step()) {
   }
   ASSERT_EQ(sim.stats().collisions, 1);
