@@ -112,6 +112,17 @@ ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Ve
   return r;
 }
 
+ContactResult separation_floor(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law) {
+  const Vec3 u = relative_point_velocity(a, b);
+  const Mat3 K = collision_matrix(a, b);
+  ContactLaw elastic = law;
+  elastic.restitution = 1.0;
+  const double top_up = floor_impulse(n.dot(u), n.dot(K * n), elastic);
+  ContactResult r{top_up * n, ContactMode::Smooth, top_up > 0.0, 0.0};
+  r.energy_loss = energy_loss(u, K, r.impulse);
+  return r;
+}
+
 double floor_impulse(double un_after, double k_nn, const ContactLaw& law) {
   if (law.min_separation <= 0.0 || law.restitution < 1.0 || un_after >= law.min_separation) return 0.0;
   return (law.min_separation - un_after) / k_nn;

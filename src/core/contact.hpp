@@ -52,6 +52,14 @@ struct ContactResult {
 
 ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law);
 
+// A contact that fired while the pair does not approach along n: a pair left
+// touching at zero normal speed (restitution 0) that rounding shows to the
+// prediction as approaching and to the contact frame as separating. No
+// restitution impulse, but the separation floor as for an elastic contact, so
+// that the pair leaves instead of firing again at the same instant for ever
+// (found by a sweep: contact.restitution_sphere = 0 froze time).
+ContactResult separation_floor(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law);
+
 // The normal impulse the separation floor adds (law.min_separation, elastic
 // contacts only) when an impulse leaves the contact separating at normal
 // speed un_after; k_nn = n.K.n, the normal speed one unit of impulse along n

@@ -593,14 +593,18 @@ void Simulation::collide_smooth_spheres(int i, int j, double t) {
   const Vec3 n = box_.min_image(kj.x - ki.x).normalized();
   const double un = n.dot(kj.v - ki.v);
   const ContactLaw law = pair_law(i, j, t);
-  if (un < 0.0) {
-    const double mass = bodies_.sp(i).mass;  // one species in the gas
-    const double k_nn = 2.0 / mass;          // n.K.n = 1/m_i + 1/m_j
-    double jn = -(1.0 + law.restitution) * un / k_nn;
-    if (const double top_up = floor_impulse(un + k_nn * jn, k_nn, law); top_up > 0.0) {
-      jn += top_up;
-      ++stats_.floored;
-    }
+  const double mass = bodies_.sp(i).mass;  // one species in the gas
+  const double k_nn = 2.0 / mass;          // n.K.n = 1/m_i + 1/m_j
+  // Not approaching: only the separation floor, as in process_collision
+  // (separation_floor, core/contact.hpp).
+  ContactLaw floor_law = law;
+  if (un >= 0.0) floor_law.restitution = 1.0;
+  double jn = un < 0.0 ? -(1.0 + law.restitution) * un / k_nn : 0.0;
+  if (const double top_up = floor_impulse(un + k_nn * jn, k_nn, floor_law); top_up > 0.0) {
+    jn += top_up;
+    ++stats_.floored;
+  }
+  if (jn != 0.0) {
     stats_.lost_contacts += -jn * (un + 0.5 * k_nn * jn);
     ki.v -= (jn / mass) * n;
     kj.v += (jn / mass) * n;
@@ -631,8 +635,9 @@ void Simulation::process_collision(int i, int j, double t) {
   // longer approaches: then no impulse (one would pull), and the next
   // prediction, in the same frame, sees them separate.
   const Vec3& n = frame.normal;
-  if (n.dot(relative_point_velocity(a, b)) < 0.0) {
-    const ContactResult r = solve_contact(a, b, n, law);
+  const bool approaching = n.dot(relative_point_velocity(a, b)) < 0.0;
+  const ContactResult r = approaching ? solve_contact(a, b, n, law) : separation_floor(a, b, n, law);
+  if (approaching || r.floored) {
     stats_.lost_contacts += r.energy_loss;
     apply_impulse(i, -r.impulse, a.arm);
     apply_impulse(j, r.impulse, b.arm);
