@@ -124,3 +124,24 @@ TEST(CellGrid, NearFaceAndNearPairScansVisitEachNeighbourOnce) {
     }
   }
 }
+
+TEST(CellGrid, AnOuterFaceOfAClosedBoxIsNoExitOnceTheCentreIsOnIt) {
+  // 5 cells of width 2: a centre on the box's face x = 0, moving out, has no
+  // exit there (the wall turns it back), only the one ahead along y; inside
+  // the box, or periodic, the face counts as before.
+  const Vec3 v(-2.0, 1.0, 0.0);
+  CellGrid closed(10.0, 2.0, 1000, false), periodic(10.0, 2.0, 1000, true);
+  ASSERT_EQ(closed.cells_per_side(), 5);
+  const CellGrid::Exit out = closed.exit_time(closed.locate(Vec3(0.0, 3.0, 5.0)), Vec3(0.0, 3.0, 5.0), v);
+  EXPECT_EQ(out.dim, 1);
+  EXPECT_DOUBLE_EQ(out.dt, 1.0);
+  const CellGrid::Exit wrap = periodic.exit_time(periodic.locate(Vec3(0.0, 3.0, 5.0)), Vec3(0.0, 3.0, 5.0), v);
+  EXPECT_EQ(wrap.dim, 0);
+  EXPECT_EQ(wrap.dt, 0.0);
+  const CellGrid::Exit before = closed.exit_time(closed.locate(Vec3(0.5, 3.0, 5.0)), Vec3(0.5, 3.0, 5.0), v);
+  EXPECT_EQ(before.dim, 0);  // still ahead of the face: it bounds the searches
+  EXPECT_DOUBLE_EQ(before.dt, 0.25);
+  const CellGrid::Exit inner = closed.exit_time(closed.locate(Vec3(4.0, 3.0, 5.0)), Vec3(4.0, 3.0, 5.0), v);
+  EXPECT_EQ(inner.dim, 0);  // x = 4 is an inner face: crossing it at once is an exit
+  EXPECT_EQ(inner.dt, 0.0);
+}

@@ -54,13 +54,19 @@ void CellGrid::move(int body, int new_cell) {
 CellGrid::Exit CellGrid::exit_time(int cell, const Vec3& x, const Vec3& v) const {
   const auto cc = coords(cell);
   Exit best{std::numeric_limits<double>::infinity(), 0, 0};
+  // An outer face of a closed box is no exit once the centre is on it: the
+  // wall turns the body back (its solid touches the wall before its centre
+  // reaches the face, unless rounding puts both at one time, as for a sphere
+  // of radius 1e-15: counted as an exit, the crossing "out" came again and
+  // again at that instant, found by a sweep). Before that the face still
+  // bounds the body's searches like any other.
   for (int d = 0; d < 3; ++d) {
     if (v[d] > 0.0) {
       const double dt = ((cc[d] + 1) * w_ - x[d]) / v[d];
-      if (dt < best.dt) best = {dt, d, +1};
+      if (dt < best.dt && (dt > 0.0 || periodic_ || cc[d] + 1 < n_)) best = {dt, d, +1};
     } else if (v[d] < 0.0) {
       const double dt = (cc[d] * w_ - x[d]) / v[d];
-      if (dt < best.dt) best = {dt, d, -1};
+      if (dt < best.dt && (dt > 0.0 || periodic_ || cc[d] > 0)) best = {dt, d, -1};
     }
   }
   if (best.dt < 0.0) best.dt = 0.0;  // rounding just after a crossing

@@ -38,7 +38,8 @@ class CellGrid {
   int locate(const Vec3& x) const;
 
   // Time until the body at x (velocity v) leaves cell c, and where it goes:
-  // dim 0..2 and direction +1/-1. Infinity if v = 0.
+  // dim 0..2 and direction +1/-1. Infinity if v = 0. An outer face of a
+  // closed grid counts only until the centre is on it.
   struct Exit { double dt; int dim; int dir; };
   Exit exit_time(int cell, const Vec3& x, const Vec3& v) const;
   // Neighbour cell across face (dim, dir); -1 outside a non-periodic box.
