@@ -157,6 +157,9 @@ def read_snapshot(path):
             raise SnapshotError(f"line {lineno}: a numeric field is not a number") from None
     if not np.all(np.isfinite(num)):
         raise SnapshotError("a body line holds a non-finite number")
+    for i in np.flatnonzero(~sphere):
+        if not np.linalg.norm(num[i, 4:7]) > 0.0:
+            raise SnapshotError(f"line {3 + i}: linker axis is zero")
 
     bonds = []
     for tok in kv.get("bonds", "").split():
@@ -383,12 +386,21 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.dpi <= 0 or args.size <= 0:
         ap.error("--dpi and --size must be positive")
+    # Matplotlib draws at most 2^16 pixels along an edge.
+    if args.dpi * args.size >= 2 ** 16:
+        ap.error(f"--dpi x --size = {args.dpi * args.size:g} pixels: must be below {2 ** 16}")
+    if not (np.isfinite(args.elev) and np.isfinite(args.azim)):
+        ap.error("--elev and --azim must be finite numbers of degrees")
     try:
         snap = read_snapshot(args.file)
-    except (OSError, SnapshotError) as err:
+    except (OSError, UnicodeDecodeError, SnapshotError) as err:  # UnicodeDecodeError: not a text file
         print(f"render_snapshot: {args.file}: {err}", file=sys.stderr)
         return 1
-    render(snap, args.output, args.elev, args.azim, args.dpi, args.max_mesh, args.size)
+    try:
+        render(snap, args.output, args.elev, args.azim, args.dpi, args.max_mesh, args.size)
+    except OSError as err:
+        print(f"render_snapshot: {args.output}: {err}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -464,6 +464,21 @@ TEST(Snapshot, RenderScriptWritesAPng) {
   const std::string msg((std::istreambuf_iterator<char>(l)), std::istreambuf_iterator<char>());
   EXPECT_NE(msg.find("line 4"), std::string::npos) << msg;
   EXPECT_FALSE(std::filesystem::exists(dir.path / "bad.png"));
+
+  // Other bad input gives a one-line message, not a traceback (a sweep found
+  // tracebacks): an output directory that does not exist, a file that is not
+  // text, a picture too large to draw (argparse's usage error, status 2).
+  auto one_line_error = [&](const std::string& args, int status) {
+    EXPECT_EQ(run("/usr/bin/python3 '" + script + "' " + args + " >'" + log + "' 2>&1"), status) << args;
+    std::ifstream lf(log);
+    const std::string out((std::istreambuf_iterator<char>(lf)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(out.find("Traceback"), std::string::npos) << out;
+    EXPECT_NE(out.find("render_snapshot"), std::string::npos) << out;
+  };
+  one_line_error("'" + xyz.string() + "' -o '" + (dir.path / "no" / "x.png").string() + "'", 1);
+  one_line_error("'" + script + ".does-not-exist' -o x.png", 1);
+  one_line_error("'" + std::string("/bin/sh") + "' -o '" + png.string() + "'", 1);
+  one_line_error("'" + xyz.string() + "' -o '" + png.string() + "' --dpi 100000", 2);
 }
 
 }  // namespace
