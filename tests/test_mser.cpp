@@ -556,6 +556,14 @@ TEST_F(MserCli, UnparsableLineIsNamed) {
   const CliRun n = run("mser --batch 1 < " + write("nan.txt", "1\n2\nnan\n"));
   EXPECT_EQ(n.status, 1);
   EXPECT_NE(n.err.find("<stdin>:3:"), std::string::npos) << n.err;
+  // Out of double's range: an overflow is no finite number, an underflow is
+  // one (it rounds to 0; it was once rejected as "not finite").
+  const CliRun big = run("mser --batch 1 < " + write("big.txt", "1\n2\n1e400\n"));
+  EXPECT_EQ(big.status, 1);
+  EXPECT_NE(big.err.find("<stdin>:3:"), std::string::npos) << big.err;
+  const CliRun tiny = run("mser --batch 1 < " + write("tiny.txt", "1\n2\n1e-400\n3\n"));
+  EXPECT_EQ(tiny.status, 0) << tiny.err;
+  EXPECT_EQ(nlohmann::json::parse(tiny.out)["n"], 4);
 }
 
 TEST_F(MserCli, TooShortAndMissingFile) {

@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -56,7 +57,13 @@ std::vector<double> read_series(std::istream& in, const std::string& name) {
     std::string_view num = s;
     if (num.size() > 1 && num.front() == '+') num.remove_prefix(1);  // from_chars rejects a leading '+'
     double v = 0.0;
-    const auto [ptr, ec] = std::from_chars(num.data(), num.data() + num.size(), v);
+    auto [ptr, ec] = std::from_chars(num.data(), num.data() + num.size(), v);
+    if (ec == std::errc::result_out_of_range && ptr == num.data() + num.size()) {
+      // from_chars leaves v unset out of range: an underflow (1e-400) is a
+      // number, 0 or subnormal as strtod rounds it; an overflow is not finite.
+      v = std::strtod(std::string(num).c_str(), nullptr);
+      if (std::isfinite(v)) ec = std::errc();
+    }
     if (ec != std::errc() || ptr != num.data() + num.size() || !std::isfinite(v)) {
       std::string shown(s.substr(0, 80));
       if (s.size() > 80) shown += "...";
