@@ -274,9 +274,9 @@ TEST(Config, RangeErrorsNameKeyValueAndRange) {
       {"[contact]\nstatic_friction_sphere = -1", "contact.static_friction_sphere = -1: must be >= 0"},
       {"[contact]\nstatic_friction_wall = -0.5", "contact.static_friction_wall = -0.5: must be >= 0"},
       {"[contact]\ndynamic_friction_linker = -2", "contact.dynamic_friction_linker = -2: must be >= 0"},
-      {"[init]\nspheres = -1", "init.spheres = -1: must be an integer >= 0"},
-      {"[init]\nlinkers = -5", "init.linkers = -5: must be an integer >= 0"},
-      {"[init]\nspheres = 3000000000", "init.spheres = 3000000000: must be an integer <= 2147483647"},
+      {"[init]\nspheres = -1", "init.spheres = -1: must be an integer in [0, 1e+06]"},
+      {"[init]\nlinkers = -5", "init.linkers = -5: must be an integer in [0, 1e+06]"},
+      {"[init]\nspheres = 3000000000", "init.spheres = 3000000000: must be an integer in [0, 1e+06]"},
       {"[init]\nalpha = 1.01", "init.alpha = 1.01: must be in [0, 1]"},
       {"[init]\nv_max = -1", "init.v_max = -1: must be >= 0"},
       {"[init]\nomega_max = -0.1", "init.omega_max = -0.1: must be >= 0"},
@@ -335,7 +335,7 @@ TEST(Config, RangeErrorsFromOverrides) {
   EXPECT_CONTAINS(e, "--set: geometry.box_length = -3: must be > 0");
   EXPECT_CONTAINS(error_of("", {"geometry.boundary=wall"}),
                   "geometry.boundary = \"wall\": must be one of reflective, periodic");
-  EXPECT_CONTAINS(error_of("", {"init.spheres=-1"}), "init.spheres = -1: must be an integer >= 0");
+  EXPECT_CONTAINS(error_of("", {"init.spheres=-1"}), "init.spheres = -1: must be an integer in [0, 1e+06]");
 }
 
 TEST(Config, BondingKeys) {
@@ -465,6 +465,28 @@ TEST(Config, AtLeastOneBody) {
   EXPECT_CONTAINS(e, "init.spheres + init.linkers = 0: must be >= 1");
   EXPECT_NO_THROW(load_config("[init]\nspheres = 0\nlinkers = 1", {}, "x"));
   EXPECT_NO_THROW(load_config("[init]\nspheres = 1\nlinkers = 0", {}, "x"));
+}
+
+TEST(Config, TheNumberOfSamplesIsBounded) {
+  // t_max / sample_interval samples of N_t: 1e-300 overflowed the series
+  // length, 1e-12 asked for terabytes.
+  for (const char* v : {"1e-300", "1e-12", "0.0001"}) {
+    const std::string e = error_of("", {std::string("run.sample_interval=") + v});
+    EXPECT_CONTAINS(e, "--set: run.t_max / run.sample_interval = 5000 / ");
+    EXPECT_CONTAINS(e, "must be <= 1e+07");
+  }
+  EXPECT_NO_THROW(load_config("", {"run.sample_interval=0.0005"}, "x"));  // exactly 1e7
+  EXPECT_CONTAINS(error_of("", {"run.t_max=1e300"}), "run.t_max / run.sample_interval");
+}
+
+TEST(Config, BodyCountsAreBounded) {
+  // 2147483647 spheres ended in "cannot create std::vector larger than max_size()".
+  const std::string e = error_of("", {"init.spheres=2147483647"});
+  EXPECT_CONTAINS(e, "init.spheres");
+  EXPECT_CONTAINS(e, "2147483647");
+  EXPECT_CONTAINS(e, "[0, 1e+06]");
+  EXPECT_CONTAINS(error_of("", {"init.linkers=1000001"}), "init.linkers");
+  EXPECT_EQ(error_of("", {"init.spheres=1000000", "geometry.box_length=1000"}), "");
 }
 
 TEST(Config, BoxMustHoldLargestBody) {
@@ -723,7 +745,7 @@ TEST(Config, RoundTripIsExact) {
   p.contact.dynamic_friction_wall = 0.25;
   p.contact.restitution_rule = CombineRule::Mean;
   p.contact.friction_rule = CombineRule::Max;
-  p.init.spheres = 2147483647;
+  p.init.spheres = 1000000;  // the largest allowed
   p.init.linkers = 0;
   p.init.alpha = 0.123456789012345678;
   p.init.velocity = VelocityInit::Thermal;

@@ -188,6 +188,15 @@ std::string range_text(const Range& r) {
   return "";
 }
 
+// Upper bounds that turn sizes the program cannot hold into configuration
+// errors instead of std::bad_alloc or a wrapped int later on. Both are far
+// above the study (600 bodies, 5000 samples of N_t).
+// 1e6 bodies of one species: a few GB of body, contact and event state.
+constexpr double kMaxBodiesPerSpecies = 1e6;
+// 1e7 samples of N_t: 80 MB per replicate in memory, 40 MB per row of
+// /series/N_t (--series); a run of R replicates pre-allocates R times that.
+constexpr double kMaxSamples = 1e7;
+
 // ---- key descriptors --------------------------------------------------------
 
 struct KeyDesc {
@@ -305,9 +314,9 @@ const std::vector<KeyDesc>& key_table() {
       key<&S::contact, &C::friction_rule>("contact.friction_rule", any(),
           "how the two objects' friction coefficients (static and dynamic) combine"),
 
-      key<&S::init, &I::spheres>("init.spheres", at_least(0),
+      key<&S::init, &I::spheres>("init.spheres", closed(0, kMaxBodiesPerSpecies),
           "number of spheres N_S (spheres + linkers >= 1)"),
-      key<&S::init, &I::linkers>("init.linkers", at_least(0),
+      key<&S::init, &I::linkers>("init.linkers", closed(0, kMaxBodiesPerSpecies),
           "number of linkers N_L (spheres + linkers >= 1)"),
       key<&S::init, &I::alpha>("init.alpha", closed(0, 1),
           "mixing degree: 0 segregated (spheres in x < l_B/2, linkers in x >= l_B/2), 1 fully mixed"),
@@ -687,6 +696,19 @@ void check_cross(const SimParams& p, const Origins& origins, Problems& problems)
                  where + "init.spheres + init.linkers = " +
                      std::to_string(static_cast<std::int64_t>(p.init.spheres) + p.init.linkers) +
                      ": must be >= 1 (at least one body)");
+  }
+
+  // The N_t series holds t_max / sample_interval + 1 samples (and `run
+  // --series` pre-allocates that many per replicate): bound it.
+  if (p.run.t_max / p.run.sample_interval > kMaxSamples) {
+    std::string where = origin(origins, "run.sample_interval");
+    if (where.empty()) where = origin(origins, "run.t_max");
+    problems.add(2, 0, 0,
+                 where + "run.t_max / run.sample_interval = " + format_real(p.run.t_max) + " / " +
+                     format_real(p.run.sample_interval) + " = " +
+                     format_real(p.run.t_max / p.run.sample_interval) + " samples of N_t: must be <= " +
+                     format_real(kMaxSamples) + " (80 MB per replicate in memory, 40 MB per row with run --series); "
+                     "raise run.sample_interval to >= " + format_real(p.run.t_max / kMaxSamples) + " or lower run.t_max");
   }
 
   // A body must fit in the box with room to move: l_B > 2 * bounding radius
