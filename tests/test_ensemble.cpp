@@ -3,6 +3,7 @@
 // a graceful stop by signal, refusals, failure isolation, `aggregate`.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -276,9 +277,9 @@ TEST_F(Ensemble, RefusesOverwriteMismatchedResumeAndUnwritablePaths) {
   EXPECT_EQ(c.status, 3);
   EXPECT_NE(c.out.find("--replicates 2"), std::string::npos) << c.out;
   c = shell(binary() + args + " -o " + path("no/such/dir/x.h5"));
-  EXPECT_EQ(c.status, 3);
+  EXPECT_EQ(c.status, 1);  // checked before anything is opened: a configuration error
   EXPECT_NE(c.out.find("no/such/dir"), std::string::npos) << c.out;
-  EXPECT_NE(c.out.find("No such file or directory"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("does not exist"), std::string::npos) << c.out;
   EXPECT_FALSE(fs::exists(path("no")));
   c = shell(binary() + args + " --set run.t_max=-1 -o " + path("bad.h5"));
   EXPECT_EQ(c.status, 1);
@@ -313,7 +314,8 @@ TEST_F(Ensemble, SetBeforeTheScenarioFileTakesOneValue) {
 TEST_F(Ensemble, FailedReplicatesAreRecordedAndTheEnsembleGoesOn) {
   const std::string f = path("budget.h5");
   const Cmd c = shell(mpirun(2) + " run --replicates 3 --seed 2" + kFast + " --set run.max_events=300 -o " + f);
-  ASSERT_EQ(c.status, 0) << c.out;
+  ASSERT_EQ(c.status, 4) << c.out;  // finished, with failed replicates
+  EXPECT_NE(c.out.find("3 of 3 replicates failed"), std::string::npos) << c.out;
   const ResultsContent r = read_results(f);
   EXPECT_EQ(count_status(r, RecordStatus::Failed), 3);
   EXPECT_STREQ(r.records[0].termination, "event_budget");
@@ -341,4 +343,64 @@ TEST_F(Ensemble, AggregateMergesShardsDropsDuplicatesAndSeparatesConfigurations)
   EXPECT_NE(csv.out.find("dtheta_deg=10"), std::string::npos) << csv.out;
   const Cmd bad = shell(binary() + " aggregate " + a + " --format xml");
   EXPECT_NE(bad.status, 0);
+}
+
+TEST_F(Ensemble, AnEnsembleWhoseScenesCannotBeBuiltExitsFour) {
+  // A box of 10 holds no 600 bodies: every replicate fails at scene
+  // building. The file and the table are still written; the exit code says so.
+  const std::string f = path("no_scene.h5");
+  const Cmd c = shell(binary() + " run --replicates 2 --seed 1 --set geometry.box_length=10 -o " + f);
+  EXPECT_EQ(c.status, 4) << c.out;
+  EXPECT_NE(c.out.find("2 of 2 replicates failed"), std::string::npos) << c.out;
+  const ResultsContent r = read_results(f);
+  ASSERT_EQ(r.records.size(), 2u);
+  EXPECT_EQ(count_status(r, RecordStatus::Failed), 2);
+  const std::string e = r.records[0].error;
+  EXPECT_FALSE(e.empty());
+  // Cut messages end in "..." instead of mid-word.
+  if (e.size() == sizeof r.records[0].error - 1) EXPECT_EQ(e.substr(e.size() - 3), "...") << e;
+}
+
+TEST(ReplicateRecord, LongErrorMessagesAreCutWithAnEllipsis) {
+  const std::string whole(80, 'a');
+  EXPECT_EQ(std::string(blank_record(0, 1, RecordStatus::Failed, "error", whole).error), whole);
+  const std::string fits(103, 'b');
+  EXPECT_EQ(std::string(blank_record(0, 1, RecordStatus::Failed, "error", fits).error), fits);
+  const std::string longer(150, 'c');
+  const std::string cut = blank_record(0, 1, RecordStatus::Failed, "error", longer).error;
+  EXPECT_EQ(cut, std::string(100, 'c') + "...");
+}
+
+TEST_F(Ensemble, OutputThatIsNotARegularFileIsRefused) {
+  // A FIFO would block open() forever; a link to /dev/null would let --force
+  // replace the device with an HDF5 file (as root). Both: exit 1 at once.
+  const std::string fifo = path("out.fifo");
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  Cmd c = shell("timeout 60 " + binary() + " run --replicates 1 --seed 1" + kFast + " --force -o " + fifo);
+  EXPECT_EQ(c.status, 1) << c.out;
+  EXPECT_NE(c.out.find("FIFO"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find(fifo), std::string::npos) << c.out;
+  const std::string link = path("null.h5");
+  ASSERT_EQ(symlink("/dev/null", link.c_str()), 0);
+  c = shell("timeout 60 " + binary() + " run --replicates 1 --seed 1" + kFast + " --force -o " + link);
+  EXPECT_EQ(c.status, 1) << c.out;
+  EXPECT_NE(c.out.find("character device"), std::string::npos) << c.out;
+  struct stat st {};
+  ASSERT_EQ(stat("/dev/null", &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+  c = shell(binary() + " run --replicates 1 --seed 1" + kFast + " -o " + path("no_such_dir") + "/x.h5");
+  EXPECT_EQ(c.status, 1) << c.out;
+  EXPECT_NE(c.out.find("does not exist"), std::string::npos) << c.out;
+}
+
+TEST_F(Ensemble, ReplicateCountAndSeriesSizeAreBounded) {
+  Cmd c = shell(binary() + " run --replicates 100000000 --seed 1 -o " + path("huge.h5"));
+  EXPECT_EQ(c.status, 1) << c.out;
+  EXPECT_NE(c.out.find("--replicates"), std::string::npos) << c.out;
+  EXPECT_EQ(c.out.find("bad_alloc"), std::string::npos) << c.out;
+  c = shell(binary() + " run --replicates 1000000 --series --seed 1 --set run.sample_interval=0.001 -o " +
+            path("huge_series.h5"));
+  EXPECT_EQ(c.status, 1) << c.out;
+  EXPECT_NE(c.out.find("must be <= 2e9"), std::string::npos) << c.out;
+  EXPECT_FALSE(fs::exists(path("huge_series.h5")));
 }

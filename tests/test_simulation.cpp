@@ -2,6 +2,9 @@
 // inelastic collapse, scene set-up and the command line.
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cmath>
@@ -762,6 +765,72 @@ TEST(Cli, BadInputIsRejectedNamingKeyValueAndRange) {
   c = run_cli("replicate");  // --seed is required
   EXPECT_NE(c.status, 0);
   EXPECT_NE(c.out.find("--seed"), std::string::npos) << c.out;
+}
+
+// `args` with stdout sent to `target` (e.g. /dev/full); stderr is captured.
+Cmd run_cli_stdout_to(const std::string& args, const std::string& target, const std::string& stdin_from = "") {
+  const std::string cmd = (stdin_from.empty() ? "" : stdin_from + " | ") + std::string(RINGSIM_BINARY) + " " + args +
+                          " 2>&1 >" + target;
+  Cmd r{0, ""};
+  FILE* f = popen(cmd.c_str(), "r");
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), buf.size(), f)) r.out += buf.data();
+  const int st = pclose(f);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+TEST(Cli, FailedWritesToStdoutAreErrors) {
+  // Before: every one of these exited 0 with nothing written.
+  const char* commands[] = {"keys", "replicate --seed 1 --set run.t_max=0.5 --json"};
+  for (const char* args : commands) {
+    const Cmd c = run_cli_stdout_to(args, "/dev/full");
+    EXPECT_EQ(c.status, 3) << args << ": " << c.out;
+    EXPECT_NE(c.out.find("cannot write to standard output"), std::string::npos) << args << ": " << c.out;
+  }
+  const Cmd m = run_cli_stdout_to("mser", "/dev/full", "seq 100");
+  EXPECT_EQ(m.status, 3) << m.out;
+  EXPECT_NE(m.out.find("cannot write to standard output"), std::string::npos) << m.out;
+  EXPECT_EQ(run_cli_stdout_to("keys", "/dev/null").status, 0);
+}
+
+TEST(Cli, SeedsAndReplicateIndicesDoNotWrap) {
+  // CLI11 read these as 2^64 - 1 (or 2^64 - 3) without a word.
+  for (const char* args : {"--seed -1", "--seed 18446744073709551616", "--seed 99999999999999999999999",
+                           "--seed 1 --replicate -3", "--seed 1.5"}) {
+    const Cmd c = run_cli(std::string("replicate --set run.t_max=0.5 ") + args);
+    EXPECT_EQ(c.status, 1) << args << ": " << c.out;
+    const std::string option = std::string(args).find("--replicate") != std::string::npos ? "--replicate" : "--seed";
+    EXPECT_NE(c.out.find(option), std::string::npos) << args << ": " << c.out;
+    EXPECT_NE(c.out.find("[0, 18446744073709551615]"), std::string::npos) << args << ": " << c.out;
+  }
+  const Cmd ok = run_cli("replicate --seed 18446744073709551615 --replicate 0 --set run.t_max=0.5 --json");
+  ASSERT_EQ(ok.status, 0) << ok.out;
+  EXPECT_EQ(nlohmann::json::parse(ok.out)["seed"].get<std::uint64_t>(), 18446744073709551615ull);
+}
+
+TEST(Cli, ReplicateChecksItsOutputPathsBeforeRunning) {
+  // A missing directory, a directory, a FIFO and a device are refused with
+  // exit 1 before the simulation (before: after it, losing the result, or
+  // blocked forever on the FIFO).
+  const std::string dir = ::testing::TempDir() + "ringsim_cli_paths_" + std::to_string(getpid());
+  ASSERT_EQ(mkdir(dir.c_str(), 0700), 0);
+  const std::string fifo = dir + "/series.fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const struct {
+    std::string args, says;
+  } cases[] = {{"--snapshot " + dir + "/missing/final.xyz", "does not exist"},
+               {"--series " + dir, "is a directory"},
+               {"--series " + fifo, "FIFO"},
+               {"--snapshot /dev/null", "character device"}};
+  for (const auto& k : cases) {
+    const Cmd c = run_cli("replicate --seed 1 --set run.t_max=5 --json " + k.args);
+    EXPECT_EQ(c.status, 1) << k.args << ": " << c.out;
+    EXPECT_NE(c.out.find(k.says), std::string::npos) << k.args << ": " << c.out;
+    EXPECT_EQ(c.out.find("termination"), std::string::npos) << k.args << ": " << c.out;
+  }
+  std::remove(fifo.c_str());
+  rmdir(dir.c_str());
 }
 
 }  // namespace

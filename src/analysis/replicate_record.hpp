@@ -28,7 +28,7 @@ struct ReplicateRecord {
   std::uint64_t seed = 0;  // base seed S; the replicate is `ringsim replicate --seed S --replicate r`
   std::int8_t status = 0;  // RecordStatus
   char termination[24] = {};  // steady_state | t_max | no_bond_possible | event_budget | error
-  char error[104] = {};       // message when status is Failed, else empty
+  char error[104] = {};       // message when status is Failed, else empty; at most 103 chars: longer ones are cut to 100 + "..."
   double t_end = 0.0;
   std::uint64_t events = 0;
   double wall_seconds = 0.0;  // measured: the only field that differs between identical runs
@@ -63,7 +63,11 @@ inline ReplicateRecord blank_record(std::uint64_t id, std::uint64_t seed, Record
   r.seed = seed;
   r.status = static_cast<std::int8_t>(status);
   std::snprintf(r.termination, sizeof r.termination, "%s", termination);
-  std::snprintf(r.error, sizeof r.error, "%s", error.c_str());
+  // A message longer than the fixed field keeps its first 100 characters
+  // and ends in "..." so a reader sees it was cut (the full text is in
+  // `ringsim replicate --seed S --replicate r`).
+  if (error.size() < sizeof r.error) std::snprintf(r.error, sizeof r.error, "%s", error.c_str());
+  else std::snprintf(r.error, sizeof r.error, "%.*s...", static_cast<int>(sizeof r.error) - 4, error.c_str());
   r.S4 = std::numeric_limits<double>::quiet_NaN();
   return r;
 }

@@ -1,5 +1,8 @@
 // ringsim: thin executable. One options struct per subcommand, one top-level catch.
 #include <CLI/CLI.hpp>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <iostream>
 
 #include "analysis/mser_command.hpp"
@@ -28,31 +31,41 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; every command-line error (a missing or
+    // out-of-range option, e.g. --seed -1) is a configuration error: exit 1,
+    // not CLI11's own codes (105, 106, ...), which no document lists.
+    return app.exit(e) == 0 ? 0 : 1;
   }
+  int code = 0;
   try {
-    if (app.got_subcommand("replicate")) return ringsim::replicate_main(rep, std::cout);
-    if (app.got_subcommand("run")) return ringsim::run_main(run_opts, std::cout, std::cerr);
-    if (app.got_subcommand("aggregate")) return ringsim::aggregate_main(agg_opts, std::cout, std::cerr);
-    if (app.got_subcommand("mser")) return ringsim::mser_main(mser_opts, std::cin, std::cout, std::cerr);
-    if (keys->parsed()) {
+    if (app.got_subcommand("replicate")) code = ringsim::replicate_main(rep, std::cout);
+    else if (app.got_subcommand("run")) code = ringsim::run_main(run_opts, std::cout, std::cerr);
+    else if (app.got_subcommand("aggregate")) code = ringsim::aggregate_main(agg_opts, std::cout, std::cerr);
+    else if (app.got_subcommand("mser")) code = ringsim::mser_main(mser_opts, std::cin, std::cout, std::cerr);
+    else if (keys->parsed()) {
       for (const auto& k : ringsim::config_keys())
         std::cout << k.name << " (" << k.type << ", default " << k.default_value << ", " << k.range << "): "
                   << k.description << '\n';
-      return 0;
     }
   } catch (const ringsim::ConfigError& e) {
     std::cerr << "ringsim: configuration error: " << e.what() << '\n';
-    return 1;
+    code = 1;
   } catch (const ringsim::SceneError& e) {
     std::cerr << "ringsim: scene error: " << e.what() << '\n';
-    return 2;
+    code = 2;
   } catch (const ringsim::ResultsFileError& e) {
     std::cerr << "ringsim: result file error: " << e.what() << '\n';
-    return 3;
+    code = 3;
   } catch (const std::exception& e) {
     std::cerr << "ringsim: error: " << e.what() << '\n';
-    return 3;
+    code = 3;
   }
-  return 0;
+  // Output that never reached stdout (a full disk, /dev/full, a closed pipe)
+  // is a failed command, not a success: exit 3 unless an error came first.
+  std::cout.flush();
+  if (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    std::cerr << "ringsim: error: cannot write to standard output: " << std::strerror(errno) << '\n';
+    if (code == 0) code = 3;
+  }
+  return code;
 }

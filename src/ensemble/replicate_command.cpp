@@ -14,6 +14,7 @@
 #include "core/simulation.hpp"
 #include "core/snapshot.hpp"
 #include "core/validation.hpp"
+#include "ensemble/cli_checks.hpp"
 #include "ensemble/config.hpp"
 #include "ringsim/version.hpp"
 
@@ -225,8 +226,12 @@ void add_replicate_command(CLI::App& app, ReplicateOptions& opt) {
       "Configuration keys and ranges: docs/CONFIG.md (or `ringsim keys`).");
   cmd->add_option("scenario", opt.scenario, "Scenario TOML file listing deviations from the defaults (optional)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--seed,-s", opt.seed, "Base seed of the random streams")->required();
-  cmd->add_option("--replicate", opt.replicate, "Replicate index (with --seed, keys every random stream)");
+  cmd->add_option("--seed,-s", opt.seed, "Base seed of the random streams, an integer in [0, 2^64 - 1]")
+      ->required()
+      ->check(unsigned64());
+  cmd->add_option("--replicate", opt.replicate,
+                  "Replicate index (with --seed, keys every random stream), an integer in [0, 2^64 - 1]")
+      ->check(unsigned64());
   cmd->add_option("--set", opt.overrides, "Override one key: SECTION.KEY=VALUE (repeatable)")
       ->expected(1)
       ->allow_extra_args(false)
@@ -245,6 +250,10 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
   std::vector<std::string> overrides = opt.overrides;
   if (opt.validate) overrides.push_back("run.validate=true");
   const SimParams params = load_config_file(opt.scenario, overrides);
+  // Checked before the run, so a bad path does not cost the replicate; the
+  // writes after the run still report their own failures.
+  if (!opt.snapshot.empty()) check_output_path(opt.snapshot, "--snapshot");
+  if (!opt.series.empty()) check_output_path(opt.series, "--series");
   const nlohmann::json j = run_replicate(params, opt.seed, opt.replicate, ReplicateIo{opt.snapshot, opt.series});
   if (opt.json) {
     out << j.dump() << '\n';

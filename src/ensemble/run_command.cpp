@@ -17,6 +17,7 @@
 #include "analysis/ensemble_summary.hpp"
 #include "analysis/table5.hpp"
 #include "core/scene.hpp"
+#include "ensemble/cli_checks.hpp"
 #include "ensemble/config.hpp"
 #include "ensemble/replicate_command.hpp"
 #include "ensemble/results_file.hpp"
@@ -267,20 +268,26 @@ void add_run_command(CLI::App& app, RunOptions& opt) {
       "keyed by (--seed, r), so its row is the same whatever the rank count or order (rerun one alone with\n"
       "`ringsim replicate --seed S --replicate r`).\n"
       "Finished replicates reach the file within about a second. After a crash or kill, rerun with --resume:\n"
-      "only the missing replicates run. SIGTERM, SIGUSR1 or Ctrl-C stop cleanly with exit code 75.\n"
+      "only the missing replicates run. SIGTERM, SIGUSR1 or Ctrl-C stop cleanly with exit code 75 (see below).\n"
       "Examples:\n"
       "  mpirun -np 2 ringsim run --replicates 8 --seed 1 -o default.h5 --set run.t_max=200\n"
       "  mpirun -np 4 ringsim run jobs/scenarios/1-baseline.toml --replicates 1000 --seed 1 -o s1.h5\n"
       "  mpirun -np 4 ringsim run jobs/scenarios/1-baseline.toml --replicates 1000 --seed 1 -o s1.h5 --resume\n"
       "  ringsim aggregate s1.h5 s2.h5 --format markdown\n"
-      "Exit codes: 0 done; 1 configuration error; 2 scene error; 3 other error (file, MPI);\n"
-      "75 stopped by a signal (rerun with --resume). File layout: docs/OUTPUT.md.");
+      "Exit codes: 0 done; 1 configuration or command-line error (also an -o that is not a regular file);\n"
+      "2 scene error; 3 other error (file, MPI, stdout not writable);\n"
+      "4 finished, but at least one replicate failed (the file and table are written; see the rows' `error`);\n"
+      "75 stopped by a signal (rerun with --resume). Under mpirun, Ctrl-C (or SIGTERM to mpirun) ends with\n"
+      "mpirun's own status, 1, not 75; SIGUSR1 to mpirun, or a signal to one rank, gives 75.\n"
+      "File layout: docs/OUTPUT.md.");
   cmd->add_option("scenario", opt.scenario, "Scenario TOML file listing deviations from the defaults (optional)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--replicates,-R", opt.replicates, "Number of replicates R (>= 1)")
+  // At most 1e6: rank 0 holds every row (about 300 bytes each) in memory at
+  // the closing write; 1e8 ended in std::bad_alloc.
+  cmd->add_option("--replicates,-R", opt.replicates, "Number of replicates R, in [1, 1000000]")
       ->required()
-      ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{100000000}));
-  cmd->add_option("--seed,-s", opt.seed, "Base seed S")->required();
+      ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{1000000}));
+  cmd->add_option("--seed,-s", opt.seed, "Base seed S, an integer in [0, 2^64 - 1]")->required()->check(unsigned64());
   cmd->add_option("--output,-o", opt.output, "HDF5 result file")->required();
   cmd->add_option("--set", opt.overrides, "Override one key: SECTION.KEY=VALUE (repeatable; a sweep point)")
       ->expected(1)  // one value per --set, so a scenario file after it stays positional
@@ -327,6 +334,18 @@ int run_main(const RunOptions& opt, std::ostream& out, std::ostream& err) {
   const std::size_t L = opt.series
                             ? static_cast<std::size_t>(std::floor(params.run.t_max / params.run.sample_interval)) + 2
                             : 0;
+  // /series/N_t is allocated in full at creation and read whole into rank 0's
+  // memory at the closing write: bound its size (8 GB of floats).
+  constexpr double kMaxSeriesValues = 2e9;
+  if (L && static_cast<double>(L) * static_cast<double>(opt.replicates) > kMaxSeriesValues) {
+    if (root)
+      err << "ringsim: configuration error: --series with --replicates " << opt.replicates << " and "
+          << L << " samples per replicate (run.t_max / run.sample_interval + 2) stores "
+          << static_cast<double>(L) * static_cast<double>(opt.replicates)
+          << " values: must be <= 2e9 (8 GB, held in memory at the closing write); lower --replicates or "
+             "run.t_max, or raise run.sample_interval\n";
+    return 1;
+  }
 
   Provenance fresh;
   fresh.version = kVersion;
@@ -341,6 +360,11 @@ int run_main(const RunOptions& opt, std::ostream& out, std::ostream& err) {
   fresh.host = host_name();
   fresh.start_time = utc_now();
   fresh.series_length = static_cast<std::int64_t>(L);
+
+  // Before anything opens or removes it: -o must be (or become) a regular file.
+  if (const int status = on_rank0(root, 1, "ringsim: configuration error: ", err,
+                                  [&] { check_output_path(opt.output, "--output"); }))
+    return status;
 
   Prepared prep;
   if (const int status = on_rank0(root, 3, "ringsim run: ", err, [&] { prep = prepare_output(opt, fresh, err); }))
@@ -411,9 +435,11 @@ int run_main(const RunOptions& opt, std::ostream& out, std::ostream& err) {
       // The closing write: provenance, summary; atomically replaces the file.
       ResultsContent content = read_results(opt.output, true);
       content.provenance = prep.provenance;
-      std::uint64_t pending = 0;
-      for (const ReplicateRecord& r : content.records)
+      std::uint64_t pending = 0, failed = 0;
+      for (const ReplicateRecord& r : content.records) {
         pending += r.status == static_cast<std::int8_t>(RecordStatus::Pending);
+        failed += r.status == static_cast<std::int8_t>(RecordStatus::Failed);
+      }
       content.provenance.complete = pending == 0;
       content.provenance.end_time = utc_now();
       const EnsembleSummary summary = summarize_ensemble(content.records);
@@ -427,6 +453,17 @@ int run_main(const RunOptions& opt, std::ostream& out, std::ostream& err) {
       } else if (pending > 0) {
         err << "ringsim run: " << pending << " replicates still pending; rerun with --resume.\n";
         code = kExitInterrupted;
+      } else if (failed > 0) {
+        std::string first_error;
+        for (const ReplicateRecord& r : content.records)
+          if (r.status == static_cast<std::int8_t>(RecordStatus::Failed)) {
+            first_error = "replicate " + std::to_string(r.id) + ": " + r.termination +
+                          (r.error[0] ? std::string(": ") + r.error : std::string());
+            break;
+          }
+        err << "ringsim run: " << failed << " of " << opt.replicates << " replicates failed (first: " << first_error
+            << "); their rows are in " << opt.output << " with status failed.\n";
+        code = kExitReplicatesFailed;
       }
     } catch (const std::exception& e) {
       err << "ringsim run: " << e.what() << "\nFinished replicates written before the error are in " << opt.output

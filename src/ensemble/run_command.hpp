@@ -17,6 +17,10 @@ namespace ringsim {
 // Exit code after SIGTERM / SIGUSR1 / SIGINT: finished replicates are saved,
 // `--resume` completes the rest (EX_TEMPFAIL of sysexits.h: "try again").
 constexpr int kExitInterrupted = 75;
+// Exit code of a `run` that finished but in which at least one replicate
+// failed (termination `error` or `event_budget`): the file and the table are
+// still written; the failed rows carry their `error` message.
+constexpr int kExitReplicatesFailed = 4;
 
 struct RunOptions {
   std::string scenario;  // empty: built-in defaults (Scenario 4)
