@@ -477,6 +477,8 @@ TEST(Config, TheNumberOfSamplesIsBounded) {
   }
   EXPECT_NO_THROW(load_config("", {"run.sample_interval=0.0005"}, "x"));  // exactly 1e7
   EXPECT_CONTAINS(error_of("", {"run.t_max=1e300"}), "run.t_max / run.sample_interval");
+  // Without bonding no series is sampled: hard-body runs end on an event budget.
+  EXPECT_EQ(error_of("", {"bonding.enabled=false", "run.t_max=1e12", "run.max_events=1000"}), "");
 }
 
 TEST(Config, BodyCountsAreBounded) {

@@ -698,9 +698,10 @@ void check_cross(const SimParams& p, const Origins& origins, Problems& problems)
                      ": must be >= 1 (at least one body)");
   }
 
-  // The N_t series holds t_max / sample_interval + 1 samples (and `run
-  // --series` pre-allocates that many per replicate): bound it.
-  if (p.run.t_max / p.run.sample_interval > kMaxSamples) {
+  // The N_t series, sampled when bonding is on, holds t_max / sample_interval
+  // + 1 samples: bound it. (Hard-body runs sample nothing and may set t_max
+  // huge to stop on run.max_events; `run --series` bounds its own file.)
+  if (p.bonding.enabled && p.run.t_max / p.run.sample_interval > kMaxSamples) {
     std::string where = origin(origins, "run.sample_interval");
     if (where.empty()) where = origin(origins, "run.t_max");
     problems.add(2, 0, 0,
