@@ -658,8 +658,8 @@ struct Cmd {
   int status;
   std::string out;
 };
-Cmd run_cli(const std::string& args) {
-  const std::string cmd = std::string(RINGSIM_BINARY) + " " + args + " 2>&1";
+// Runs a shell command line; its output (as redirected there) and exit status.
+Cmd run_shell(const std::string& cmd) {
   Cmd r{0, ""};
   FILE* f = popen(cmd.c_str(), "r");
   std::array<char, 4096> buf;
@@ -668,6 +668,7 @@ Cmd run_cli(const std::string& args) {
   r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
   return r;
 }
+Cmd run_cli(const std::string& args) { return run_shell(std::string(RINGSIM_BINARY) + " " + args + " 2>&1"); }
 
 TEST(Cli, ReplicateJsonHasTheContractFields) {
   const Cmd c = run_cli("replicate --seed 3 --set run.t_max=2 --json");
@@ -769,15 +770,8 @@ TEST(Cli, BadInputIsRejectedNamingKeyValueAndRange) {
 
 // `args` with stdout sent to `target` (e.g. /dev/full); stderr is captured.
 Cmd run_cli_stdout_to(const std::string& args, const std::string& target, const std::string& stdin_from = "") {
-  const std::string cmd = (stdin_from.empty() ? "" : stdin_from + " | ") + std::string(RINGSIM_BINARY) + " " + args +
-                          " 2>&1 >" + target;
-  Cmd r{0, ""};
-  FILE* f = popen(cmd.c_str(), "r");
-  std::array<char, 4096> buf;
-  while (fgets(buf.data(), buf.size(), f)) r.out += buf.data();
-  const int st = pclose(f);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
+  return run_shell((stdin_from.empty() ? "" : stdin_from + " | ") + std::string(RINGSIM_BINARY) + " " + args +
+                   " 2>&1 >" + target);
 }
 
 TEST(Cli, FailedWritesToStdoutAreErrors) {
