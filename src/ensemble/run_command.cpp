@@ -275,8 +275,9 @@ void add_run_command(CLI::App& app, RunOptions& opt) {
       "  mpirun -np 4 ringsim run jobs/scenarios/1-baseline.toml --replicates 1000 --seed 1 -o s1.h5 --resume\n"
       "  ringsim aggregate s1.h5 s2.h5 --format markdown\n"
       "Exit codes: 0 done; 1 configuration or command-line error (also an -o that is not a regular file);\n"
-      "2 scene error; 3 other error (file, MPI, stdout not writable);\n"
-      "4 finished, but at least one replicate failed (the file and table are written; see the rows' `error`);\n"
+      "3 other error (file, MPI, stdout not writable);\n"
+      "4 finished, but at least one replicate failed, e.g. a scene that cannot be built (the file and table\n"
+      "are written; see the rows' `error`);\n"
       "75 stopped by a signal (rerun with --resume). Under mpirun, Ctrl-C (or SIGTERM to mpirun) ends with\n"
       "mpirun's own status, 1, not 75; SIGUSR1 to mpirun, or a signal to one rank, gives 75.\n"
       "File layout: docs/OUTPUT.md.");
