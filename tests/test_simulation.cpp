@@ -774,6 +774,17 @@ Cmd run_cli_stdout_to(const std::string& args, const std::string& target, const 
                    " 2>&1 >" + target);
 }
 
+TEST(Cli, EveryCommandsHelpTeachesItsExitCodes) {
+  // A sweep found exit codes only in `run --help`.
+  for (const char* command : {"replicate", "run", "aggregate", "mser", "keys"}) {
+    const Cmd c = run_cli(std::string(command) + " --help");
+    EXPECT_EQ(c.status, 0) << command;
+    EXPECT_NE(c.out.find("Exit codes: 0 done"), std::string::npos) << command << ":\n" << c.out;
+    EXPECT_NE(c.out.find("xample"), std::string::npos) << command << ":\n" << c.out;
+  }
+  EXPECT_NE(run_cli("--help").out.find("exit codes"), std::string::npos);
+}
+
 TEST(Cli, FailedWritesToStdoutAreErrors) {
   // Before: every one of these exited 0 with nothing written.
   const char* commands[] = {"keys", "replicate --seed 1 --set run.t_max=0.5 --json"};

@@ -89,7 +89,8 @@ void add_mser_command(CLI::App& app, MserOptions& opt) {
       "Examples:\n"
       "  ringsim mser series.txt                 MSER-5 of a file\n"
       "  seq 100 -1 1 | ringsim mser --batch 1   plain MSER of standard input\n"
-      "Rule and conventions: docs/STEADY_STATE.md.");
+      "Rule and conventions: docs/STEADY_STATE.md.\n"
+      "Exit codes: 0 done; 1 input or usage error (the message names the line); 3 stdout not writable.");
   cmd->add_option("input", opt.input, "Series file, or - for standard input (the default)")->type_name("FILE|-");
   cmd->add_option("--batch,-m", opt.batch, "Batch size M >= 1 (default 5: MSER-5)")->type_name("M");
 }

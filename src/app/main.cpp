@@ -18,6 +18,10 @@ int main(int argc, char** argv) {
   CLI::App app{"ringsim: event-driven rigid-body simulation of geometry-driven macrocyclization "
                "(spheres and cylindrical linkers). See README.md and docs/."};
   app.require_subcommand(1);
+  app.footer(
+      "Start with `ringsim replicate --seed 1` (one replicate of the built-in default scenario) or\n"
+      "`mpirun -np 2 ringsim run --replicates 4 --seed 1 -o out.h5` (an ensemble and its table).\n"
+      "Each command's --help gives examples and its exit codes; 0 is always success.");
   app.set_version_flag("--version", ringsim::kVersion);
   ringsim::ReplicateOptions rep;
   ringsim::add_replicate_command(app, rep);
@@ -28,6 +32,11 @@ int main(int argc, char** argv) {
   ringsim::MserOptions mser_opts;
   ringsim::add_mser_command(app, mser_opts);
   CLI::App* keys = app.add_subcommand("keys", "List every configuration key with its default, range and meaning.");
+  keys->footer(
+      "One key per line: name (type, default, range): meaning. The same table: docs/CONFIG.md.\n"
+      "Example:\n"
+      "  ringsim keys | grep '^bonding\\.'      the bond rules' keys\n"
+      "Exit codes: 0 done; 3 stdout not writable.");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

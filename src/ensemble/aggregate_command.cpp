@@ -72,7 +72,9 @@ void add_aggregate_command(CLI::App& app, AggregateOptions& opt) {
       "Examples:\n"
       "  ringsim aggregate results/*.h5\n"
       "  ringsim aggregate shard-*.h5 --format markdown > table5.md\n"
-      "  ringsim aggregate results/*.h5 --format csv > table5.csv");
+      "  ringsim aggregate results/*.h5 --format csv > table5.csv\n"
+      "Exit codes: 0 done; 1 command-line error (e.g. a missing file); 3 a file that is not a readable\n"
+      "ringsim result, or stdout not writable.");
   cmd->add_option("files", opt.files, "HDF5 result files written by `ringsim run`")->required()->check(
       CLI::ExistingFile);
   cmd->add_option("--format", opt.format, "table (terminal), markdown, csv or json")

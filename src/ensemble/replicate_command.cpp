@@ -223,7 +223,10 @@ void add_replicate_command(CLI::App& app, ReplicateOptions& opt) {
       "  ringsim replicate jobs/scenarios/4-passive-selection.toml --seed 3 --snapshot final.xyz\n"
       "      then: /usr/bin/python3 scripts/render_snapshot.py final.xyz -o final.png\n"
       "  ringsim replicate --seed 2 --series nt.txt && ringsim mser nt.txt   steady-state analysis of N_t(t)\n"
-      "Configuration keys and ranges: docs/CONFIG.md (or `ringsim keys`).");
+      "Configuration keys and ranges: docs/CONFIG.md (or `ringsim keys`).\n"
+      "Exit codes: 0 done; 1 configuration or command-line error (also an unusable --snapshot or --series\n"
+      "path, checked before the run); 2 the scene cannot be built (e.g. too many bodies for the box);\n"
+      "3 simulation error (the output is still printed, termination \"error\") or stdout not writable.");
   cmd->add_option("scenario", opt.scenario, "Scenario TOML file listing deviations from the defaults (optional)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--seed,-s", opt.seed, "Base seed of the random streams, an integer in [0, 2^64 - 1]")
