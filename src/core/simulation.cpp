@@ -127,9 +127,10 @@ Event Simulation::free_body_exit(int i, double t, const Vec3& xi) {
   // a sphere at rest), and a search over such a window takes ~window / (gap /
   // rate) steps: with init.v_max = 0, tens of millions. So the body is
   // re-checked (a relocation event, as for cluster members) once its fastest
-  // point could have moved kRecheckWidths cell widths; a sphere's exit always
-  // comes first (it is at most sqrt(3) w / |v| away).
-  const double speed = k.v.norm() + shape_rotation_speed(k, bodies_.sp(i));
+  // point could have moved kRecheckWidths cell widths. A sphere's exit always
+  // comes first (it is at most sqrt(3) w / |v| away): nothing to compute on
+  // the hard-sphere gas's path.
+  const double speed = bodies_.shape[i] == Shape::Sphere ? 0.0 : k.v.norm() + shape_rotation_speed(k, bodies_.sp(i));
   if (speed > 0.0) {
     const double recheck = t + kRecheckWidths * grid_.cell_width() / speed;
     if (recheck < e.time) {
