@@ -31,6 +31,11 @@ Mat3 collision_matrix(const ContactSide& a, const ContactSide& b) {
   return (a.inv_mass + b.inv_mass) * Mat3::Identity() - ra * a.inv_inertia * ra - rb * b.inv_inertia * rb;
 }
 
+// Newton's law along n alone (no friction): -(1 + e) u_n / (n.K.n) n.
+Vec3 smooth_impulse(const Vec3& u, const Mat3& K, const Vec3& n, double e) {
+  return (-(1.0 + e) * n.dot(u) / n.dot(K * n)) * n;
+}
+
 // Newton restitution and impulsive Coulomb friction (the header's laws), for
 // relative contact-point velocity u and collision matrix K.
 ContactResult newton_coulomb(const Vec3& u, const Mat3& K, const Vec3& n, const ContactLaw& law) {
@@ -55,8 +60,7 @@ ContactResult newton_coulomb(const Vec3& u, const Mat3& K, const Vec3& n, const 
     }
     // denom <= 0 (the Painleve-like configurations): fall through to smooth.
   }
-  const double j = -(1.0 + e) * un / n.dot(K * n);
-  return {j * n, ContactMode::Smooth};
+  return {smooth_impulse(u, K, n, e), ContactMode::Smooth};
 }
 
 // -J . (u- + u+) / 2 with u+ = u- + K J (header).
@@ -75,7 +79,7 @@ double energy_loss(const Vec3& u, const Mat3& K, const Vec3& J) { return -J.dot(
 // loses none is taken: as much of the friction as keeps the energy.
 Vec3 without_energy_gain(const Vec3& u, const Mat3& K, const Vec3& n, const ContactLaw& law, const Vec3& J) {
   if (energy_loss(u, K, J) >= 0.0) return J;
-  const Vec3 js = (-(1.0 + law.restitution) * n.dot(u) / n.dot(K * n)) * n;
+  const Vec3 js = smooth_impulse(u, K, n, law.restitution);
   const Vec3 d = J - js;
   const double a = 0.5 * d.dot(K * d), b = d.dot(u + K * js), c = std::max(0.0, energy_loss(u, K, js));
   // The positive root of a lambda^2 + b lambda - c = 0, in the form without
@@ -115,17 +119,19 @@ ContactResult solve_contact(const ContactSide& a, const ContactSide& b, const Ve
 ContactResult separation_floor(const ContactSide& a, const ContactSide& b, const Vec3& n, const ContactLaw& law) {
   const Vec3 u = relative_point_velocity(a, b);
   const Mat3 K = collision_matrix(a, b);
-  ContactLaw elastic = law;
-  elastic.restitution = 1.0;
-  const double top_up = floor_impulse(n.dot(u), n.dot(K * n), elastic);
+  const double top_up = floor_impulse_at_rest(n.dot(u), n.dot(K * n), law);
   ContactResult r{top_up * n, ContactMode::Smooth, top_up > 0.0, 0.0};
   r.energy_loss = energy_loss(u, K, r.impulse);
   return r;
 }
 
 double floor_impulse(double un_after, double k_nn, const ContactLaw& law) {
-  if (law.min_separation <= 0.0 || law.restitution < 1.0 || un_after >= law.min_separation) return 0.0;
-  return (law.min_separation - un_after) / k_nn;
+  return law.restitution < 1.0 ? 0.0 : floor_impulse_at_rest(un_after, k_nn, law);
+}
+
+double floor_impulse_at_rest(double un, double k_nn, const ContactLaw& law) {
+  if (law.min_separation <= 0.0 || un >= law.min_separation) return 0.0;
+  return (law.min_separation - un) / k_nn;
 }
 
 Vec3 relative_point_velocity(const ContactSide& a, const ContactSide& b) { return point_velocity(b) - point_velocity(a); }

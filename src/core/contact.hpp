@@ -65,6 +65,10 @@ ContactResult separation_floor(const ContactSide& a, const ContactSide& b, const
 // speed un_after; k_nn = n.K.n, the normal speed one unit of impulse along n
 // makes. 0 when the floor does not apply.
 double floor_impulse(double un_after, double k_nn, const ContactLaw& law);
+// The same for a pair that fired without approaching (normal speed un >= 0,
+// no restitution impulse): the floor applies whatever the restitution
+// (separation_floor; the sphere gas's collisions use it directly).
+double floor_impulse_at_rest(double un, double k_nn, const ContactLaw& law);
 
 // Kinetic energy an impulse J on B (-J on A) takes out of the pair: with u the
 // relative velocity of the contact points (B minus A), before and after,

@@ -598,10 +598,9 @@ void Simulation::collide_smooth_spheres(int i, int j, double t) {
   const double k_nn = 2.0 / mass;          // n.K.n = 1/m_i + 1/m_j
   // Not approaching: only the separation floor, as in process_collision
   // (separation_floor, core/contact.hpp).
-  ContactLaw floor_law = law;
-  if (un >= 0.0) floor_law.restitution = 1.0;
   double jn = un < 0.0 ? -(1.0 + law.restitution) * un / k_nn : 0.0;
-  if (const double top_up = floor_impulse(un + k_nn * jn, k_nn, floor_law); top_up > 0.0) {
+  if (const double top_up = un < 0.0 ? floor_impulse(un + k_nn * jn, k_nn, law) : floor_impulse_at_rest(un, k_nn, law);
+      top_up > 0.0) {
     jn += top_up;
     ++stats_.floored;
   }
