@@ -351,17 +351,14 @@ void Simulation::predict(int i, double t) {
   // saved when the partner's trajectory changes there (docs/ARCHITECTURE.md,
   // "Prediction"). run.partner_horizon = false searches to i's own horizon.
   const bool partner_horizon = params_.run.partner_horizon;
-  // Without the partner horizon a body with no event of its own (at rest)
-  // still stops at the partner's, by the same argument: no search is endless.
-  auto pair_limit = [&](int j) {
-    return partner_horizon || best.time == kNever ? std::min(best.time, events_[j].time) : best.time;
-  };
-  // Neither body may have an event yet: i at rest (no cell exit, no
-  // re-check) and j at rest too, or not yet predicted (the first pass at
-  // t = 0). A linker turning next to a sphere at rest may then never touch
-  // it, and its search would never end: such a pair is searched until its
-  // points could have approached by kRecheckWidths cell widths, and i is
-  // re-checked there (unless an earlier event comes first).
+  auto pair_limit = [&](int j) { return partner_horizon ? std::min(best.time, events_[j].time) : best.time; };
+  // The limit may be kNever: i has no event yet (at rest: no cell exit, no
+  // re-check) and j has none either (at rest too, or not yet predicted: the
+  // first pass at t = 0), or j's is not used (run.partner_horizon off). A
+  // linker turning next to a sphere at rest may then never touch it, and its
+  // search would never end: such a pair is searched until its points could
+  // have approached by kRecheckWidths cell widths, and i is re-checked there
+  // (unless an earlier event comes first).
   double recheck = kNever;
   auto bounded_limit = [&](int j) {
     const double limit = pair_limit(j);
