@@ -492,12 +492,17 @@ TEST(InelasticCollapse, DenseGasWithRestitutionPointThreeFinishes) {
 }
 
 TEST(InelasticCollapse, WithoutTcModelTheEventRateExplodes) {
-  // The same gas without the TC model spends its whole event budget early:
-  // the collapse the remedy is for.
+  // The same gas without the TC model collapses: the collisions pile up
+  // until time stops at one instant (t = 189.37 for this seed), and the run
+  // ends with an error naming the remedy instead of spending its whole
+  // event budget (which it did before the frozen-time guard) or, without a
+  // budget, never ending.
   const SimParams p = collapsing_gas(0.0, 2'000'000);
   Simulation sim(p, build_scene(p, 3, 0, nullptr));
-  EXPECT_EQ(sim.run(), Termination::EventBudget);
+  EXPECT_EQ(sim.run(), Termination::Error);
   EXPECT_LT(sim.time(), 1000.0);
+  EXPECT_LT(sim.stats().events, 1'000'000);
+  EXPECT_NE(sim.error().find("run.tc_time"), std::string::npos) << sim.error();
 }
 
 // The default box without bonding, e = 0.7 (optionally with friction 0.2):
@@ -564,6 +569,30 @@ TEST(InelasticCollapse, RestitutionZeroDoesNotFreezeTime) {
     EXPECT_GT(run.stats.floored, 0);
     EXPECT_EQ(run.report.overlaps, 0);
     EXPECT_LT(run.report.max_momentum_error, 1e-12);
+  }
+}
+
+// The same scene with the separation floor switched off (0, a valid value):
+// the resting pair fires at one instant for ever. The run must stop with an
+// error that says so and names the key, not spend its budget (or, without
+// one, never end).
+TEST(InelasticCollapse, FrozenTimeEndsTheRunWithAnError) {
+  for (int linkers : {20, 0}) {
+    SimParams p;
+    p.bonding.enabled = false;
+    p.geometry.boundary = Boundary::Periodic;
+    p.geometry.box_length = 20.0;
+    p.init.spheres = linkers > 0 ? 60 : 400;
+    p.init.linkers = linkers;
+    p.contact.restitution_sphere = 0.0;
+    p.run.min_separation_speed = 0.0;
+    p.run.t_max = 1.0;
+    p.run.max_events = 2'000'000;
+    Simulation sim(p, build_scene(p, 485, 0, nullptr));
+    EXPECT_EQ(sim.run(), Termination::Error) << linkers << " linkers, t = " << sim.time();
+    EXPECT_LT(sim.stats().events, 200'000);
+    EXPECT_NE(sim.error().find("time stopped"), std::string::npos) << sim.error();
+    EXPECT_NE(sim.error().find("run.min_separation_speed"), std::string::npos) << sim.error();
   }
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <tuple>
 
@@ -39,6 +40,34 @@ int count_spheres(const BodyStore& b, bool bonding) {
     ++n;  // without bonding the graph only counts objects (all monomers)
   }
   return n;
+}
+
+const char* event_kind(EventType type) {
+  switch (type) {
+    case EventType::Collision: return "collision";
+    case EventType::Capture: return "capture";
+    case EventType::Wall: return "wall contact";
+    case EventType::CellCross: return "cell crossing";
+    case EventType::Slice: return "compliant slice";
+    case EventType::None: break;
+  }
+  return "event";
+}
+
+// Why the run stops when time does (Simulation::kFrozenEvents).
+std::string frozen_time_message(const Event& ev, int body, const SimParams& p) {
+  std::ostringstream out;
+  out.precision(17);
+  out << "time stopped at t = " << ev.time << ": more than " << Simulation::kFrozenEvents
+      << " events in a row at this instant, the last a " << event_kind(ev.type) << " of body " << body;
+  if (ev.type == EventType::Collision || ev.type == EventType::Capture) out << " with body " << ev.partner;
+  if (p.run.tc_time == 0.0)
+    out << "; inelastic collapse (infinitely many collisions in finite time) needs the TC model:"
+           " run.tc_time is 0 (off), set it > 0 (default 1e-04)";
+  if (p.run.min_separation_speed == 0.0)
+    out << "; a resting contact needs the separation floor: run.min_separation_speed is 0 (off), set it > 0"
+           " (default 1e-06)";
+  return out.str();
 }
 }  // namespace
 
@@ -741,6 +770,12 @@ bool Simulation::step() {
   }
   if (params_.run.max_events > 0 && stats_.events >= params_.run.max_events) {
     termination_ = Termination::EventBudget;
+    return false;
+  }
+  frozen_ = ev.time == now_ ? frozen_ + 1 : 0;
+  if (frozen_ > kFrozenEvents) {
+    termination_ = Termination::Error;
+    error_ = frozen_time_message(ev, i, params_);
     return false;
   }
   now_ = ev.time;

@@ -157,6 +157,11 @@ class Simulation {
   // (checked every kStopCheckEvents events: a relaxed atomic load).
   void set_stop_flag(const std::atomic<bool>* flag) { stop_flag_ = flag; }
   static constexpr std::uint64_t kStopCheckEvents = 1024;
+  // The run ends with Termination::Error once this many events in a row
+  // happen at one and the same instant: time has stopped (a resting contact
+  // firing again and again with nothing to separate it), and the run would
+  // never end. No physical sequence of events repeats one instant this often.
+  static constexpr std::int64_t kFrozenEvents = 100'000;
 
   // Called with every compliant cluster a bond creates or changes (merge or
   // ring closure), in its state at the bond, before it is integrated: the
@@ -308,6 +313,7 @@ class Simulation {
   std::vector<double> sphere_floor_;
   std::vector<Event> sphere_own_;              // the body's crossing or wall hit
   double now_ = 0.0;
+  std::int64_t frozen_ = 0;  // events in a row at the instant now_ (kFrozenEvents)
   RunStats stats_;
   Termination termination_ = Termination::Running;
   std::string error_;
