@@ -553,17 +553,22 @@ TEST(InelasticCollapse, ChatteringLinkersExhaustABudgetWithAShortContactTime) {
 // (a sweep found t frozen at 0.2147 for this scene; both the general path,
 // with linkers, and the sphere gas's). Now such a contact gets the separation
 // floor and time goes on.
+SimParams resting_spheres(int linkers, std::int64_t event_budget) {
+  SimParams p;
+  p.bonding.enabled = false;
+  p.geometry.boundary = Boundary::Periodic;
+  p.geometry.box_length = 20.0;
+  p.init.spheres = linkers > 0 ? 60 : 400;
+  p.init.linkers = linkers;
+  p.contact.restitution_sphere = 0.0;
+  p.run.t_max = 1.0;
+  p.run.max_events = event_budget;
+  return p;
+}
+
 TEST(InelasticCollapse, RestitutionZeroDoesNotFreezeTime) {
   for (int linkers : {20, 0}) {
-    SimParams p;
-    p.bonding.enabled = false;
-    p.geometry.boundary = Boundary::Periodic;
-    p.geometry.box_length = 20.0;
-    p.init.spheres = linkers > 0 ? 60 : 400;
-    p.init.linkers = linkers;
-    p.contact.restitution_sphere = 0.0;
-    p.run.t_max = 1.0;
-    p.run.max_events = 200'000;
+    const SimParams p = resting_spheres(linkers, 200'000);
     const ValidatedRun run = validated_run(p, 485);
     EXPECT_EQ(run.end, Termination::TimeLimit) << linkers << " linkers";
     EXPECT_GT(run.stats.floored, 0);
@@ -578,16 +583,8 @@ TEST(InelasticCollapse, RestitutionZeroDoesNotFreezeTime) {
 // one, never end).
 TEST(InelasticCollapse, FrozenTimeEndsTheRunWithAnError) {
   for (int linkers : {20, 0}) {
-    SimParams p;
-    p.bonding.enabled = false;
-    p.geometry.boundary = Boundary::Periodic;
-    p.geometry.box_length = 20.0;
-    p.init.spheres = linkers > 0 ? 60 : 400;
-    p.init.linkers = linkers;
-    p.contact.restitution_sphere = 0.0;
+    SimParams p = resting_spheres(linkers, 2'000'000);
     p.run.min_separation_speed = 0.0;
-    p.run.t_max = 1.0;
-    p.run.max_events = 2'000'000;
     Simulation sim(p, build_scene(p, 485, 0, nullptr));
     EXPECT_EQ(sim.run(), Termination::Error) << linkers << " linkers, t = " << sim.time();
     EXPECT_LT(sim.stats().events, 200'000);
