@@ -54,19 +54,18 @@ const char* event_kind(EventType type) {
   return "event";
 }
 
-// Why the run stops when time does (Simulation::kFrozenEvents).
+// Why the run stops when time does (Simulation::kFrozenEvents). The remedy
+// comes first: result files keep the first 100 characters of an error.
 std::string frozen_time_message(const Event& ev, int body, const SimParams& p) {
   std::ostringstream out;
-  out.precision(17);
-  out << "time stopped at t = " << ev.time << ": more than " << Simulation::kFrozenEvents
-      << " events in a row at this instant, the last a " << event_kind(ev.type) << " of body " << body;
-  if (ev.type == EventType::Collision || ev.type == EventType::Capture) out << " with body " << ev.partner;
-  if (p.run.tc_time == 0.0)
-    out << "; inelastic collapse (infinitely many collisions in finite time) needs the TC model:"
-           " run.tc_time is 0 (off), set it > 0 (default 1e-04)";
+  out.precision(6);
+  out << "time stopped at t = " << ev.time;
   if (p.run.min_separation_speed == 0.0)
-    out << "; a resting contact needs the separation floor: run.min_separation_speed is 0 (off), set it > 0"
-           " (default 1e-06)";
+    out << " (resting contact: run.min_separation_speed = 0; set it > 0, e.g. 1e-06)";
+  if (p.run.tc_time == 0.0) out << " (inelastic collapse: run.tc_time = 0; set it > 0, e.g. 1e-04)";
+  out << ": more than " << Simulation::kFrozenEvents << " events in a row at this instant, the last a "
+      << event_kind(ev.type) << " of body " << body;
+  if (ev.type == EventType::Collision || ev.type == EventType::Capture) out << " with body " << ev.partner;
   return out.str();
 }
 }  // namespace
