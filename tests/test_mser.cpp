@@ -285,6 +285,28 @@ TEST(Mser, LargeOffsetDoesNotCostAccuracy) {
   EXPECT_NEAR(s.statistic, r.statistic, 1e-5 * r.statistic);
 }
 
+TEST(Mser, ExtremeMagnitudesGiveTheTruncationOfTheUnscaledData) {
+  // Multiplying the data by 2^p multiplies every MSER(d) by 2^(2p) exactly and
+  // changes nothing else, so d* must not move. Near 1e308 the squared
+  // deviations overflow, near 1e-300 they underflow to 0 (every candidate a tie
+  // at 0, d* = 0): the evaluation must not inherit either from the data's range.
+  // The statistic is reported in squared units of the data, so it is inf (or 0)
+  // only when MSER(d*) itself lies outside the double range (p = 1000, -600, -1000).
+  const std::vector<double> y = step_series(0.01);
+  for (std::size_t m : {1u, 5u}) {
+    const MserResult r = mser(y, m);
+    ASSERT_EQ(r.truncation, 20u);
+    for (int p : {-1000, -600, 520, 1000}) {
+      std::vector<double> scaled;
+      for (double v : y) scaled.push_back(std::ldexp(v, p));
+      const MserResult s = mser(scaled, m);
+      EXPECT_EQ(s.truncation, r.truncation) << "scale 2^" << p << ", batch " << m;
+      EXPECT_EQ(s.steady, r.steady) << "scale 2^" << p << ", batch " << m;
+      EXPECT_EQ(s.statistic, std::ldexp(r.statistic, 2 * p)) << "scale 2^" << p << ", batch " << m;
+    }
+  }
+}
+
 // ---- stationary noise -------------------------------------------------------
 
 TEST(Mser, StationaryNoiseIsSteadyWithSmallTruncation) {

@@ -1,5 +1,6 @@
 #include "analysis/mser.hpp"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <stdexcept>
@@ -14,19 +15,31 @@ namespace {
 // (count, mean, m2) describe the retained suffix x_j .. x_{k-1}, i.e. d = j,
 // with m2 = sum (x_i - xbar_d)^2 (Welford's update; each increment
 // delta * (x - mean_new) is >= 0 because mean_new lies between mean and x).
+//
+// The pass works on y * 2^-e, e the binary exponent of the largest |y_i| used,
+// so every value lies in (-1, 1): batch sums, deviations and their squares can
+// neither overflow (data near 1e308) nor underflow to 0 (data near 1e-300,
+// which would make every candidate a tie at 0). Scaling by a power of two is
+// exact, so for data whose squares stay in the normal range every MSER(d), and
+// hence d*, is bit for bit what the unscaled pass gives; the statistic is
+// scaled back by 2^(2e) (inf or 0 only when MSER(d*) itself is out of range).
 MserResult mser_unchecked(const double* y, std::size_t n, std::size_t m) {
   const std::size_t k = n / m;
   assert(m >= 1 && k >= 2);
+  double largest = 0.0;
+  for (std::size_t i = 0; i < k * m; ++i) largest = std::max(largest, std::fabs(y[i]));
+  int e = 0;
+  if (largest > 0.0) std::frexp(largest, &e);  // largest = f * 2^e, f in [0.5, 1)
   double count = 0.0, mean = 0.0, m2 = 0.0;
   double best = std::numeric_limits<double>::infinity();
   std::size_t best_d = 0;
   for (std::size_t j = k; j-- > 0;) {
     double x;
     if (m == 1) {
-      x = y[j];
+      x = std::scalbn(y[j], -e);
     } else {
       double s = 0.0;
-      for (std::size_t i = j * m; i < (j + 1) * m; ++i) s += y[i];
+      for (std::size_t i = j * m; i < (j + 1) * m; ++i) s += std::scalbn(y[i], -e);
       x = s / static_cast<double>(m);
     }
     count += 1.0;
@@ -46,7 +59,7 @@ MserResult mser_unchecked(const double* y, std::size_t n, std::size_t m) {
   r.batches = k;
   r.truncation = m * best_d;
   r.steady = 2 * best_d <= k;
-  r.statistic = best;
+  r.statistic = std::ldexp(best, 2 * e);  // back to squared units of y
   return r;
 }
 
