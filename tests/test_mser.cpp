@@ -588,6 +588,20 @@ TEST_F(MserCli, UnparsableLineIsNamed) {
   EXPECT_EQ(nlohmann::json::parse(tiny.out)["n"], 4);
 }
 
+TEST_F(MserCli, OneSignOnly) {
+  // A leading '+' is allowed ("+5" is 5), but "+-5" is not a number (it was
+  // once read as -5: the '+' was stripped before parsing the rest).
+  const CliRun plus = run("mser --batch 1 " + write("plus.txt", "+5\n+.5\n1\n"));
+  EXPECT_EQ(plus.status, 0) << plus.err;
+  EXPECT_EQ(nlohmann::json::parse(plus.out)["n"], 3);
+  for (const char* bad : {"+-5", "-+5", "++5", "+ 5"}) {
+    const CliRun r = run("mser --batch 1 " + write("signs.txt", "1\n" + std::string(bad) + "\n2\n3\n"));
+    EXPECT_EQ(r.status, 1) << bad << ": " << r.out;
+    EXPECT_NE(r.err.find(":2:"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(bad), std::string::npos) << r.err;
+  }
+}
+
 TEST_F(MserCli, TooShortAndMissingFile) {
   const CliRun r = run("mser " + write("short.txt", series_text({1, 2, 3, 4, 5, 6, 7, 8, 9})));
   EXPECT_EQ(r.status, 1);

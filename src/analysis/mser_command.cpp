@@ -55,7 +55,8 @@ std::vector<double> read_series(std::istream& in, const std::string& name) {
     std::string_view s = trim(line);
     if (s.empty() || s.front() == '#') continue;
     std::string_view num = s;
-    if (num.size() > 1 && num.front() == '+') num.remove_prefix(1);  // from_chars rejects a leading '+'
+    // from_chars rejects a leading '+'; strip it unless a second sign follows ("+-5" is no number).
+    if (num.size() > 1 && num.front() == '+' && num[1] != '-' && num[1] != '+') num.remove_prefix(1);
     double v = 0.0;
     auto [ptr, ec] = std::from_chars(num.data(), num.data() + num.size(), v);
     if (ec == std::errc::result_out_of_range && ptr == num.data() + num.size()) {
