@@ -88,7 +88,8 @@ def parse_key_values(text, lineno):
 
 def read_snapshot(path):
     """Returns a dict: time, box, periodic, comment, sphere (bool[N]), pos, radius,
-    axis, half_length (arrays), object (int[N]), bonds (int[B, 2], sphere id, linker id)."""
+    axis, half_length (arrays), object (int[N]), bonds (int[B, 2], sphere id, linker id),
+    bond_ends (int[B], 0 = a = x + h u, 1 = b = x - h u; None when the file has no bond_ends)."""
     with open(path, "r", encoding="utf-8") as f:
         lines = f.read().splitlines()
     if not lines:
@@ -171,11 +172,18 @@ def read_snapshot(path):
         if not (sep and 0 <= s_id < n and 0 <= l_id < n and sphere[s_id] and not sphere[l_id]):
             raise SnapshotError(f"line 2: bond '{tok}' is not a (sphere id, linker id) pair")
         bonds.append((s_id, l_id))
+    ends = None
+    if "bond_ends" in kv:
+        toks = kv["bond_ends"].split()
+        if len(toks) != len(bonds) or any(t not in ("0", "1") for t in toks):
+            raise SnapshotError(f"line 2: bond_ends needs one 0 (a) or 1 (b) per bond ({len(bonds)})")
+        ends = np.array([int(t) for t in toks], dtype=int)
     return {
         "time": time, "box": lat[0], "periodic": periodic, "comment": kv.get("comment", ""),
         "sphere": sphere, "pos": num[:, 0:3], "radius": num[:, 3], "axis": num[:, 4:7],
         "half_length": num[:, 7], "object": obj,
         "bonds": np.array(bonds, dtype=int).reshape(-1, 2),
+        "bond_ends": ends,
     }
 
 
@@ -217,21 +225,25 @@ def target_members(snap):
 
 
 def bond_segments(snap):
-    """(B, 2, 3): sphere centre -> nearest linker end (minimum image when periodic)."""
+    """(B, 2, 3): sphere centre -> bonded linker end (minimum image when periodic); the
+    nearest end stands in when the file does not say which end (no bond_ends)."""
     bonds = snap["bonds"]
     if len(bonds) == 0:
         return np.zeros((0, 2, 3))
     ps = snap["pos"][bonds[:, 0]]
     pl = snap["pos"][bonds[:, 1]]
     h = snap["half_length"][bonds[:, 1]][:, None] * snap["axis"][bonds[:, 1]]
-    best = None
+    seen = []
     for end in (pl + h, pl - h):
         d = end - ps
         if snap["periodic"]:
             d -= snap["box"] * np.round(d / snap["box"])
-        best = d if best is None else np.where(
-            (np.sum(d * d, axis=1) < np.sum(best * best, axis=1))[:, None], d, best)
-    return np.stack([ps, ps + best], axis=1)
+        seen.append(d)
+    if snap.get("bond_ends") is not None:
+        pick_b = snap["bond_ends"] == 1
+    else:
+        pick_b = np.sum(seen[1] * seen[1], axis=1) < np.sum(seen[0] * seen[0], axis=1)
+    return np.stack([ps, ps + np.where(pick_b[:, None], seen[1], seen[0])], axis=1)
 
 
 # ---- meshes ------------------------------------------------------------------------

@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -19,6 +20,7 @@
 #include <vector>
 
 #include "core/snapshot.hpp"
+#include "ensemble/replicate_command.hpp"
 
 namespace ringsim {
 namespace {
@@ -371,6 +373,46 @@ TEST(Snapshot, VtkHasBodiesBondsAndGlyphArrays) {
   EXPECT_EQ(vtk_block(t, "SCALARS kind int 1\nLOOKUP_TABLE", 5), (std::vector<double>{0, 0, 0, 1, 1}));
 }
 
+TEST(Snapshot, BondEndsRoundTripAndPlaceTheVtkBondPoints) {
+  // Linker 1 along x at x = 10 (end a at 12, end b at 8); sphere 0 at x = 11
+  // is bonded to end b although end a is nearer (a capture shell wider than
+  // the linker), sphere 2 at x = 13 to end a.
+  Snapshot s;
+  s.time = 1.0;
+  s.box_length = 20.0;
+  s.bodies.push_back(sphere_at(Vec3(11, 10, 10), 0));
+  s.bodies.push_back(linker_at(Vec3(10, 10, 10), Vec3(1, 0, 0), 0));
+  s.bodies.push_back(sphere_at(Vec3(13, 10, 10), 0));
+  s.bonds = {{0, 1}, {2, 1}};
+  s.bond_ends = {1, 0};
+  std::ostringstream xyz;
+  write_extended_xyz(xyz, s);
+  EXPECT_NE(xyz.str().find(" bond_ends=\"1 0\""), std::string::npos);
+  std::istringstream back(xyz.str());
+  EXPECT_EQ(read_extended_xyz(back).bond_ends, s.bond_ends);
+  std::ostringstream vtk;
+  write_vtk(vtk, s);
+  const auto pts = vtk_block(vtk.str(), "POINTS 5 double", 15);
+  EXPECT_EQ(std::vector<double>(pts.begin() + 9, pts.end()), (std::vector<double>{8, 10, 10, 12, 10, 10}));
+  // Without ends (older files) the nearest end stands in.
+  s.bond_ends.clear();
+  std::ostringstream nearest;
+  write_vtk(nearest, s);
+  const auto pn = vtk_block(nearest.str(), "POINTS 5 double", 15);
+  EXPECT_EQ(std::vector<double>(pn.begin() + 9, pn.end()), (std::vector<double>{12, 10, 10, 12, 10, 10}));
+  // Invalid ends are refused by the writer and the reader.
+  s.bond_ends = {0};
+  EXPECT_THROW(write_vtk(nearest, s), std::invalid_argument);
+  s.bond_ends = {2, 0};
+  EXPECT_THROW(write_vtk(nearest, s), std::invalid_argument);
+  s.bond_ends = {0, 0};  // end a of linker 1 bonded twice
+  EXPECT_THROW(write_extended_xyz(nearest, s), std::invalid_argument);
+  std::string text = xyz.str();
+  text.replace(text.find("bond_ends=\"1 0\""), 15, "bond_ends=\"1\"");
+  std::istringstream short_ends(text);
+  EXPECT_THROW(read_extended_xyz(short_ends), std::runtime_error);
+}
+
 // ---- renderer --------------------------------------------------------------------
 
 struct TempDir {
@@ -395,6 +437,52 @@ int run(const std::string& command) {
 bool python_with_matplotlib() {
   if (::access("/usr/bin/python3", X_OK) != 0) return false;
   return run("/usr/bin/python3 -c 'import numpy, matplotlib' >/dev/null 2>&1") == 0;
+}
+
+// A replicate's VTK bond points are the ends that actually bonded, not the
+// ends nearest the sphere. With a capture distance this large (r_c = 3, filters
+// off) a sphere can bond both ends of one linker, both ends lying inside its
+// capture shell: the old writer, which took the nearest end, drew both bonds
+// of such a pair to the same end.
+TEST(Snapshot, ReplicateVtkBondPointsAreTheBondedEnds) {
+  TempDir dir;
+  SimParams p;
+  p.init.spheres = 60;
+  p.init.linkers = 60;
+  p.geometry.box_length = 20.0;
+  p.bonding.angle_filter = false;
+  p.bonding.coplanarity_filter = false;
+  p.bonding.capture_distance = 3.0;
+  p.run.t_max = 1e-3;  // the bonds formed at t = 0 (pairs already inside the shell)
+  ReplicateIo io;
+  io.snapshot_path = (dir.path / "final.vtk").string();
+  const nlohmann::json result = run_replicate(p, 1, 0, io);
+  ASSERT_EQ(result.at("termination").get<std::string>(), "t_max");
+  std::ifstream in(io.snapshot_path);
+  const std::string t((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const int n = p.init.spheres + p.init.linkers;
+  const int nb = result.at("bonds").get<int>();
+  const auto pts = vtk_block(t, "POINTS " + std::to_string(n + nb) + " double", 3 * (n + nb));
+  const auto lines = vtk_block(t, "LINES " + std::to_string(nb) + " " + std::to_string(3 * nb), 3 * nb);
+  // Which linker each bond point belongs to: the snapshot's bonds (XYZ order = VTK order).
+  io.snapshot_path = (dir.path / "final.xyz").string();
+  run_replicate(p, 1, 0, io);
+  std::ifstream xin(io.snapshot_path);
+  const Snapshot xyz = read_extended_xyz(xin);
+  ASSERT_EQ(static_cast<int>(xyz.bonds.size()), nb);
+  int repeated = 0;
+  for (int k = 0; k < nb; ++k) {
+    for (int j = k + 1; j < nb; ++j) {
+      if (xyz.bonds[k] != xyz.bonds[j]) continue;
+      ++repeated;  // one sphere on both ends of one linker: the points must be the two ends
+      ASSERT_EQ(lines[3 * k + 1], xyz.bonds[k].first);
+      const Vec3 pk(pts[3 * (n + k)], pts[3 * (n + k) + 1], pts[3 * (n + k) + 2]);
+      const Vec3 pj(pts[3 * (n + j)], pts[3 * (n + j) + 1], pts[3 * (n + j) + 2]);
+      const SnapshotBody& lk = xyz.bodies[xyz.bonds[k].second];
+      EXPECT_NEAR((pk - pj).norm(), 2.0 * lk.half_length, 1e-9) << "bonds " << k << " and " << j;
+    }
+  }
+  EXPECT_GT(repeated, 0) << "the scene must hold a sphere bonded to both ends of a linker";
 }
 
 TEST(Snapshot, RenderScriptWritesAPng) {

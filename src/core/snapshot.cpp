@@ -29,6 +29,7 @@
 #include <limits>
 #include <map>
 #include <ostream>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -99,6 +100,20 @@ void validate(const Snapshot& s) {
                                   std::to_string(sp) + ", " + std::to_string(lk) +
                                   ") is not a (sphere id, linker id) pair of the " +
                                   std::to_string(n) + " bodies");
+  }
+  if (s.bond_ends.empty()) return;
+  if (s.bond_ends.size() != s.bonds.size())
+    throw std::invalid_argument("snapshot has " + std::to_string(s.bond_ends.size()) + " bond ends for " +
+                                std::to_string(s.bonds.size()) + " bonds");
+  std::set<std::pair<int, int>> seen;
+  for (std::size_t k = 0; k < s.bonds.size(); ++k) {
+    const int e = s.bond_ends[k];
+    if (e != 0 && e != 1)
+      throw std::invalid_argument("snapshot bond " + std::to_string(k) + " has end " + std::to_string(e) +
+                                  " (valid: 0 = a, 1 = b)");
+    if (!seen.emplace(s.bonds[k].second, e).second)
+      throw std::invalid_argument("snapshot bond " + std::to_string(k) + ": end " + std::to_string(e) +
+                                  " of linker " + std::to_string(s.bonds[k].second) + " is bonded twice");
   }
 }
 
@@ -246,23 +261,22 @@ bool getline_cr(std::istream& in, std::string& s) {
   return true;
 }
 
-// The point of a bond on the linker: the end (centre of an end face) nearest
-// the sphere centre, as seen from the sphere (minimum image when periodic).
-Vec3 bond_end(const Snapshot& s, const SnapshotBody& sph, const SnapshotBody& lk) {
-  Vec3 best = lk.x;
-  double best_d2 = 0.0;
-  for (const double sign : {1.0, -1.0}) {
+// The point of bond k on the linker, as seen from the sphere (minimum image
+// when periodic): the bonded end (centre of an end face) when bond_ends says
+// which, else the end nearest the sphere centre.
+Vec3 bond_end(const Snapshot& s, std::size_t k) {
+  const SnapshotBody& sph = s.bodies[s.bonds[k].first];
+  const SnapshotBody& lk = s.bodies[s.bonds[k].second];
+  auto seen_from_sphere = [&](double sign) {
     Vec3 d = lk.x + sign * lk.half_length * lk.axis - sph.x;
     if (s.periodic) {
       for (int c = 0; c < 3; ++c) d[c] -= s.box_length * std::round(d[c] / s.box_length);
     }
-    const double d2 = d.squaredNorm();
-    if (sign > 0.0 || d2 < best_d2) {
-      best = sph.x + d;
-      best_d2 = d2;
-    }
-  }
-  return best;
+    return d;
+  };
+  if (!s.bond_ends.empty()) return sph.x + seen_from_sphere(s.bond_ends[k] == 0 ? 1.0 : -1.0);
+  const Vec3 a = seen_from_sphere(1.0), b = seen_from_sphere(-1.0);
+  return sph.x + (b.squaredNorm() < a.squaredNorm() ? b : a);
 }
 
 }  // namespace
@@ -291,7 +305,16 @@ void write_extended_xyz(std::ostream& out, const Snapshot& s) {
     t += '-';
     put(t, s.bonds[k].second);
   }
-  t += "\" comment=\"";
+  t += '"';
+  if (!s.bond_ends.empty()) {
+    t += " bond_ends=\"";
+    for (std::size_t k = 0; k < s.bond_ends.size(); ++k) {
+      if (k > 0) t += ' ';
+      put(t, s.bond_ends[k]);
+    }
+    t += '"';
+  }
+  t += " comment=\"";
   t += s.comment;
   t += "\"\n";
   for (const SnapshotBody& b : s.bodies) {
@@ -443,6 +466,17 @@ Snapshot read_extended_xyz(std::istream& in) {
       s.bonds.emplace_back(static_cast<int>(a), static_cast<int>(l));
     }
   }
+  if (const std::string* ends = get("bond_ends")) {
+    for (const std::string_view tok : split_ws(*ends)) {
+      long long e = -1;
+      if (!parse_int(tok, e) || (e != 0 && e != 1))
+        fail(2, "bond end '" + std::string(tok) + "' is not 0 (a) or 1 (b)");
+      s.bond_ends.push_back(static_cast<int>(e));
+    }
+    if (s.bond_ends.size() != s.bonds.size())
+      fail(2, "bond_ends has " + std::to_string(s.bond_ends.size()) + " ends for " + std::to_string(s.bonds.size()) +
+                  " bonds");
+  }
   return s;
 }
 
@@ -453,7 +487,7 @@ void write_vtk(std::ostream& out, const Snapshot& s) {
   const int np = n + nb;  // body centres, then one bond point per bond
   std::vector<Vec3> bond_points;
   bond_points.reserve(nb);
-  for (const auto& [sp, lk] : s.bonds) bond_points.push_back(bond_end(s, s.bodies[sp], s.bodies[lk]));
+  for (std::size_t k = 0; k < s.bonds.size(); ++k) bond_points.push_back(bond_end(s, k));
 
   std::string t;
   t.reserve(400 + 200 * static_cast<std::size_t>(np));

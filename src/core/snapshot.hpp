@@ -10,6 +10,8 @@
 //    linkers have half_length > 0 and a unit axis (|axis| - 1 <= 1e-6);
 //  - bonds are (sphere id, linker id) pairs of valid ids; a pair may repeat
 //    (one linker with both ends on one sphere, filters off);
+//  - bond_ends is empty (unknown) or holds one end per bond, 0 (a = x + h u)
+//    or 1 (b = x - h u), and no (linker, end) twice;
 //  - comment has no '"', '\\', '\n' or '\r' (it is written as a quoted
 //    extended XYZ value, and OVITO's parser knows no escapes).
 // Units are reduced (length = sphere radius), box = [0, box_length]^3.
@@ -37,6 +39,11 @@ struct Snapshot {
   bool periodic = false;
   std::vector<SnapshotBody> bodies;          // index = body id
   std::vector<std::pair<int, int>> bonds;    // (sphere id, linker id)
+  // The bonded end of each bond's linker (0 = a, 1 = b), parallel to bonds;
+  // empty when unknown (files without it), and then the end nearest the
+  // sphere stands in for it (wrong only when both ends are within the
+  // capture shell, a capture distance of about a linker length).
+  std::vector<int> bond_ends;
   std::string comment;                       // free text (scenario, seed), no newlines
 };
 

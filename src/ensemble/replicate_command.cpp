@@ -38,6 +38,7 @@ void write_snapshot(const Simulation& sim, const SimParams& params, std::uint64_
                                        s.radius, s.half_length, sim.graph().component(i)});
   }
   snap.bonds = sim.graph().bonds();
+  for (const Bond& bond : sim.graph().bond_log()) snap.bond_ends.push_back(bond.end);
   std::ofstream out(path);
   if (!out) throw std::runtime_error("cannot open snapshot file " + path + " for writing");
   const bool vtk = path.size() >= 4 && path.compare(path.size() - 4, 4, ".vtk") == 0;
