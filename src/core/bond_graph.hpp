@@ -23,10 +23,13 @@
 //    closes one ring. Its length is the shortest path between them before
 //    the bond, plus one (even, as the graph is bipartite); it has m = length/2
 //    spheres. m = 2 is two linkers bridging the same two spheres, m = 1 one
-//    linker with both ends on one sphere (both possible only with filters
-//    off); they are counted in their own bins and are NV2, but are not part
-//    of N_cyc. Rings are never opened, so N_m "at the final time" is the
-//    running count. N_cyc = sum_{m >= 3} N_m, S4 = N_4 / N_cyc, undefined
+//    linker with both ends on one sphere (both need a capture distance far
+//    above the default, and the filters off or their windows wide: seen at
+//    r_c >= 2, m = 2 also with both filters at +-45 degrees and r_c = 3.9;
+//    m = 1 passes the angle filter only if theta = 180 is in its window);
+//    they are counted in their own bins and are NV2, but not in N_cyc.
+//    Rings are never opened, so N_m "at the final time" is the running
+//    count. N_cyc = sum_{m >= 3} N_m, S4 = N_4 / N_cyc, undefined
 //    (std::nullopt, never 0) when N_cyc = 0.
 //    Exactness: a component has exactly (edges - vertices + 1) recorded rings.
 //    With the default valencies (v_S = 2, one bond per linker end) degrees

@@ -9,7 +9,7 @@
 //  - every number is finite; radius > 0; spheres have half_length == 0;
 //    linkers have half_length > 0 and a unit axis (|axis| - 1 <= 1e-6);
 //  - bonds are (sphere id, linker id) pairs of valid ids; a pair may repeat
-//    (one linker with both ends on one sphere, filters off);
+//    (one linker with both ends on one sphere, at a large capture distance);
 //  - bond_ends is empty (unknown) or holds one end per bond, 0 (a = x + h u)
 //    or 1 (b = x - h u), and no (linker, end) twice;
 //  - comment has no '"', '\\', '\n' or '\r' (it is written as a quoted
