@@ -17,6 +17,7 @@
 #include "compliant_chain.hpp"
 #include "core/bond_rules.hpp"
 #include "core/compliant.hpp"
+#include "core/compliant_group.hpp"
 #include "core/compliant_integrator.hpp"
 
 namespace ringsim {
@@ -391,6 +392,70 @@ TEST(CompliantChain, RelaxesToSquare) {
   EXPECT_TRUE(planarity_ok(dihedral_deg(l0.axis(), n_l1, n_l3), bp));
   // About linker 3: end-0 side sphere 0 (linker 0), end-1 side sphere 3 (linker 2).
   EXPECT_TRUE(planarity_ok(dihedral_deg(l3.axis(), n_l0, n_l2), bp));
+}
+
+// ---- track error estimate (core/compliant_group.hpp) -----------------------------------------
+
+// Distance, at a slice's midpoint, between the cubic Hermite track of the
+// end states (centre; axis scaled to the half length, normalized as the
+// tracks do) and the integrated state there; the largest over the bodies.
+double hermite_midpoint_error(const CompliantCluster& a, const CompliantCluster& mid, const CompliantCluster& b,
+                              double D) {
+  double worst = 0.0;
+  for (std::size_t k = 0; k < a.bodies.size(); ++k) {
+    const CompliantBody &p = a.bodies[k], &m = mid.bodies[k], &q = b.bodies[k];
+    const Vec3 x = 0.5 * (p.x + q.x) + D / 8.0 * (p.v - q.v);
+    double e = (x - m.x).norm();
+    if (p.shape == Shape::Linker) {
+      const Vec3 h = 0.5 * (p.axis() + q.axis()) + D / 8.0 * (p.omega.cross(p.axis()) - q.omega.cross(q.axis()));
+      e += p.half_length * (h.normalized() - m.axis()).norm();
+    }
+    worst = std::max(worst, e);
+  }
+  return worst;
+}
+
+// The estimate against the track's true error on a displaced, spinning
+// four-corner chain (bond springs, angle and dihedral terms, damping: every
+// load the estimate differentiates). The quintic it compares with is exact to
+// O(D^6), so estimate / error -> 1 as D -> 0; over a slice of a bond period
+// the tracks are useless and the estimate must say so.
+TEST(TrackErrorEstimate, MatchesTheTracksErrorAndFlagsSlicesLongerThanABondPeriod) {
+  CompliantParams cp = scenario5();
+  test::ChainSetup setup;
+  setup.dx = 0.05;
+  setup.drot_deg = 5.0;
+  setup.v = 0.5;
+  setup.omega = 0.5;
+  setup.seed = 3;
+  const CompliantCluster c = test::four_corner_chain(cp, both_filters(), setup);
+  IntegratorOptions o;
+  o.rtol = 1e-12;
+  o.atol = 1e-14;
+  o.max_steps = 200000;
+  // Fastest bond period ~ 2 pi sqrt(mu / k) = 0.35 (mu = 3.1, k = 1000).
+  auto ratio = [&](double D, double* error) {
+    ClusterIntegrator integ(c, 0.0, o);
+    const CompliantCluster a = integ.state();
+    EXPECT_TRUE(integ.advance_to(0.5 * D).ok());
+    const CompliantCluster mid = integ.state();
+    EXPECT_TRUE(integ.advance_to(D).ok());
+    const CompliantCluster& b = integ.state();
+    *error = hermite_midpoint_error(a, mid, b, D);
+    return track_error_estimate(slice_end(a), slice_end(b), D) / *error;
+  };
+  double e_small = 0.0, e_mid = 0.0, e_long = 0.0;
+  const double r_small = ratio(0.005, &e_small), r_mid = ratio(0.02, &e_mid);
+  EXPECT_NEAR(r_small, 1.0, 0.05) << "error " << e_small;
+  EXPECT_NEAR(r_mid, 1.0, 0.25) << "error " << e_mid;
+  std::printf("ratios %.4f (error %.3g) %.4f (error %.3g)\n", r_small, e_small, r_mid, e_mid);
+  EXPECT_GT(e_small, 1e-9);  // a real error, far above the integrator's
+  ratio(0.7, &e_long);       // two bond periods
+  ClusterIntegrator integ(c, 0.0, o);
+  const SliceEnd a = slice_end(integ.state());
+  ASSERT_TRUE(integ.advance_to(0.7).ok());
+  EXPECT_GT(track_error_estimate(a, slice_end(integ.state()), 0.7), 10.0 * CompliantParams{}.track_tolerance)
+      << "true error " << e_long;
 }
 
 // ---- stiffness and failure reporting ----------------------------------------------------------

@@ -341,6 +341,43 @@ TEST(CompliantScenario, ValidationReplicateHasNoOverlapsAndIsDeterministic) {
   EXPECT_EQ(once(false), a);     // the validator observes only
 }
 
+// Stiff bonds (k = 1e6, bond period ~0.011) with the default slice of 0.05:
+// the members' cubic tracks over several periods had nothing to do with the
+// integrated motion, and contacts and the validator read them: the energy
+// rose to 54 and 7 350 times the initial (seeds 1, 2; a sweep found it).
+// Slices are now halved until the track error estimate is within
+// compliant.track_tolerance.
+TEST(CompliantScenario, StiffBondsGetSlicesTheirTracksCanFollow) {
+  SimParams p;
+  p.geometry.box_length = 10.0;
+  p.init.spheres = p.init.linkers = 3;
+  p.init.v_max = 3.0;
+  p.bonding.capture_distance = 1.5;
+  p.bonding.sphere_valency = 1;
+  p.bonding.angle_filter = p.bonding.coplanarity_filter = false;
+  p.compliant.k = 1e6;
+  p.compliant.c = 10.0;
+  p.compliant.burst_contacts = 0;
+  p.compliant.relax_energy = 0.0;
+  p.run.t_max = 5.0;
+  auto run = [&](double tolerance, std::uint64_t seed) {
+    p.compliant.track_tolerance = tolerance;
+    Simulation sim(p, build_scene(p, seed, 0, nullptr));
+    Validator v(sim);
+    sim.set_validator(&v);
+    EXPECT_NE(sim.run(), Termination::Error) << sim.error();
+    EXPECT_EQ(sim.stats().bonds, 3);
+    EXPECT_EQ(v.report().overlaps, 0);
+    return v.report();
+  };
+  for (std::uint64_t seed : {1, 2}) {
+    const ValidationReport checked = run(CompliantParams{}.track_tolerance, seed);
+    EXPECT_LT(checked.max_energy_error, 1e-9) << "seed " << seed;
+    EXPECT_LT(checked.max_angular_momentum_error, 0.05) << "seed " << seed;
+    EXPECT_GT(run(0.0, seed).max_energy_error, 1.0) << "seed " << seed << ": without the check";
+  }
+}
+
 TEST(CompliantScenario, ExplicitIntegratorFailureEndsTheReplicateWithItsReason) {
   // k = 1e6 with the explicit method and long slices: the step cap is hit
   // (docs/COMPLIANT.md: ERK is stability-limited, ~2.4e-5 per step at 1e6).

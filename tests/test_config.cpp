@@ -425,6 +425,8 @@ TEST(Config, CompliantKeys) {
   EXPECT_EQ(c.compliant.slice, 0.02);
   EXPECT_CONTAINS(error_of("", {"compliant.method=rk4"}), "compliant.method");
   EXPECT_CONTAINS(error_of("", {"compliant.slice=0"}), "compliant.slice = 0: must be in [1e-04, 10]");
+  EXPECT_EQ(load_config("[compliant]\nk = 1000\ntrack_tolerance = 0.001", {}, "t.toml").compliant.track_tolerance, 0.001);
+  EXPECT_CONTAINS(error_of("", {"compliant.track_tolerance=-0.1"}), "compliant.track_tolerance = -0.1: must be >= 0");
   EXPECT_CONTAINS(error_of("", {"compliant.rtol=1"}), "compliant.rtol = 1");
   EXPECT_CONTAINS(error_of("", {"compliant.relax_energy=-1"}), "compliant.relax_energy = -1: must be >= 0");
   // Smooth spheres only: a compliant cluster keeps a sphere's spin constant.
@@ -802,7 +804,7 @@ TEST(Config, ScenarioRoundTripWithEscapedStrings) {
 
 TEST(Config, KeyInfoTable) {
   const auto& keys = config_keys();
-  ASSERT_EQ(keys.size(), 62u);
+  ASSERT_EQ(keys.size(), 63u);
   for (const KeyInfo& k : keys) {
     EXPECT_FALSE(k.type.empty()) << k.name;
     EXPECT_FALSE(k.default_value.empty()) << k.name;

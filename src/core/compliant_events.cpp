@@ -4,6 +4,7 @@
 // class Simulation (core/simulation.hpp).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <tuple>
 
@@ -78,6 +79,11 @@ void Simulation::cut_group(int g, double t) {
 
 bool Simulation::begin_slice(int g, double t) {
   CompliantGroup& G = cgroups_[g];
+  // A slice that follows the last one starts from its end state, whose
+  // accelerations that slice's check computed; after a cut, a bond or a new
+  // integrator (pending) the state is new.
+  const bool follows = !G.pending && G.end_cached && G.end_time == t;
+  G.end_cached = false;
   if (G.pending) G.integ->reinit_at(t);
   G.pending = false;
   if (box_.periodic) {
@@ -92,8 +98,11 @@ bool Simulation::begin_slice(int g, double t) {
     com = com / mass + G.shift;
     for (int d = 0; d < 3; ++d) G.shift[d] -= box_.length * std::floor(com[d] / box_.length);
   }
-  const std::vector<CompliantBody> start = G.integ->state().bodies;
-  double D = params_.compliant.slice;
+  const CompliantParams& cp = params_.compliant;
+  const SliceEnd start = follows ? std::move(G.end) : slice_end(G.integ->state());
+  double D = std::min(cp.slice, G.track_slice);
+  bool track_halved = false;
+  double error = 0.0;
   for (int attempt = 0;; ++attempt) {
     const AdvanceResult r = G.integ->advance_to(t + D);
     if (!r.ok()) {
@@ -103,13 +112,30 @@ bool Simulation::begin_slice(int g, double t) {
     }
     // A slice in which an axis turns by about a radian or more is halved:
     // the interpolated axis must stay well away from zero length
-    // (core/compliant_group.cpp).
-    const double len = set_tracks(bodies_, G, start, t, G.integ->state().bodies, t + D);
-    if (len >= 0.5 || attempt == 30) break;
-    G.integ->mutable_state().bodies = start;
+    // (core/compliant_group.cpp). So is one whose tracks stray from the
+    // integrated motion by more than compliant.track_tolerance (stiff bonds:
+    // a slice longer than a bond period).
+    const double len = set_tracks(bodies_, G, start.bodies, t, G.integ->state().bodies, t + D);
+    bool good = len >= 0.5;
+    if (good && cp.track_tolerance > 0.0) {
+      G.end = slice_end(G.integ->state());
+      G.end_cached = true;
+      error = track_error_estimate(start, G.end, D);
+      good = error <= cp.track_tolerance;
+      track_halved = track_halved || !good;
+    }
+    if (good || attempt == 30) break;
+    G.integ->mutable_state().bodies = start.bodies;
     G.integ->reinit_at(t);
+    G.end_cached = false;
     D *= 0.5;
   }
+  G.end_time = t + D;
+  // The next slice starts from the length the tolerance allowed, and doubles
+  // back towards compliant.slice while the estimate (~ D^4) leaves room.
+  if (track_halved) G.track_slice = D;
+  else if (D == G.track_slice && error <= cp.track_tolerance / 32.0)
+    G.track_slice = 2.0 * D < cp.slice ? 2.0 * D : std::numeric_limits<double>::infinity();
   G.ta = t;
   G.tb = t + D;
   ++stats_.slices;

@@ -62,6 +62,48 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const std::vector<Compl
   return min_len;
 }
 
+// A linker's angular momentum L changes at the torque's rate, and
+// omega = I^-1(u) L with I^-1 = 1/I_perp + (1/I_axial - 1/I_perp) u u^T, so
+// omega' = I^-1 tau + (1/I_axial - 1/I_perp) (u' (u.L) + u (u'.L)), u' = omega x u,
+// and u'' = omega' x u + omega x u'.
+SliceEnd slice_end(const CompliantCluster& c) {
+  const std::vector<BodyMotion> motion = body_motions(c);
+  std::vector<Vec3> force, torque;
+  compliant_loads(c, motion, true, force, torque);
+  SliceEnd e;
+  e.bodies = c.bodies;
+  e.center_accel.resize(c.bodies.size());
+  e.axis_accel.assign(c.bodies.size(), Vec3::Zero());
+  for (std::size_t k = 0; k < c.bodies.size(); ++k) {
+    const CompliantBody& b = c.bodies[k];
+    e.center_accel[k] = force[k] / b.mass;
+    if (b.shape == Shape::Sphere) continue;
+    const Vec3 u = motion[k].u, w = motion[k].omega;
+    const double a_perp = 1.0 / b.i_perp, a_diff = 1.0 / b.i_axial - a_perp;
+    const Vec3 L = b.angular_momentum();
+    const Vec3 du = w.cross(u);
+    const Vec3 dw = a_perp * torque[k] + a_diff * (torque[k].dot(u) * u + du * u.dot(L) + u * du.dot(L));
+    e.axis_accel[k] = dw.cross(u) + w.cross(du);
+  }
+  return e;
+}
+
+double track_error_estimate(const SliceEnd& a, const SliceEnd& b, double D) {
+  double worst = 0.0;
+  for (std::size_t k = 0; k < a.bodies.size(); ++k) {
+    const CompliantBody &p = a.bodies[k], &q = b.bodies[k];
+    const Vec3 ex = D / 32.0 * (p.v - q.v) + D * D / 64.0 * (a.center_accel[k] + b.center_accel[k]);
+    double e = ex.norm();
+    if (p.shape != Shape::Sphere) {
+      const Vec3 wp = p.omega.cross(p.axis()), wq = q.omega.cross(q.axis());
+      const Vec3 eu = D / 32.0 * (wp - wq) + D * D / 64.0 * (a.axis_accel[k] + b.axis_accel[k]);
+      e += p.half_length * eu.norm();
+    }
+    worst = std::max(worst, e);
+  }
+  return worst;
+}
+
 CompliantBody member_state(const BodyStore& b, int i, double t, const CompliantBody& model, const Vec3& shift) {
   const Track& tr = b.track[i];
   CompliantBody s = model;

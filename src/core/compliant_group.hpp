@@ -22,6 +22,15 @@
 
 namespace ringsim {
 
+// One end of a slice: the members' integrator states and their second time
+// derivatives (centre, and a linker's axis) under the cluster's field:
+// forces, torques and the gyroscopic term.
+struct SliceEnd {
+  std::vector<CompliantBody> bodies;
+  std::vector<Vec3> center_accel, axis_accel;
+};
+SliceEnd slice_end(const CompliantCluster& c);
+
 struct CompliantGroup {
   bool alive = false;
   std::vector<int> members;  // body ids; model.bodies[k] is body members[k]
@@ -32,6 +41,14 @@ struct CompliantGroup {
   Vec3 shift = Vec3::Zero();
   double ta = 0.0, tb = 0.0;  // the present slice
   bool pending = false;       // the integrator stands at ta with a changed state: a slice must begin
+  // Longest slice compliant.track_tolerance allowed lately (infinity: none
+  // was shortened by it); Simulation::begin_slice.
+  double track_slice = std::numeric_limits<double>::infinity();
+  // The present slice's end state with its accelerations (when the check
+  // computed them): the next slice's start, unless a cut comes first.
+  SliceEnd end;
+  bool end_cached = false;
+  double end_time = 0.0;
   // Relaxed-cluster switch (core/compliant_group.cpp): start of the present
   // quiet stretch (internal kinetic energy below the tolerance at every slice
   // boundary since then); NaN while not quiet.
@@ -52,6 +69,18 @@ struct CompliantGroup {
 // caller shortens the slice when it is small (a turn of more than ~1 rad).
 double set_tracks(BodyStore& b, const CompliantGroup& g, const std::vector<CompliantBody>& sa, double ta,
                   const std::vector<CompliantBody>& sb, double tb);
+
+
+// An estimate of how far the cubic Hermite tracks of a slice of length D
+// stray from the motion the integrator followed: for every member, the
+// distance at the slice's midpoint between its track and the quintic that
+// also matches the accelerations at both ends, for the centre plus the axis
+// scaled by the linker's half length (an end point); the largest over the
+// members. The quintic minus the cubic at the midpoint is
+// D (v_a - v_b) / 32 + D^2 (a_a + a_b) / 64: zero for every cubic motion,
+// and like the cubic's own error it grows as D^4 times the motion's fourth
+// derivative (halving D divides it by ~16).
+double track_error_estimate(const SliceEnd& a, const SliceEnd& b, double D);
 
 // State of member i at t (inside its slice) from its track, in the
 // integrator's frame (shift removed). `model` supplies the body's constants.

@@ -89,6 +89,10 @@ struct CompliantParams {
   double rtol = 1e-6;
   double atol = 1e-8;
   double slice = 0.05;  // longest slice integrated ahead of the event loop (time)
+  // Largest estimated distance (length) between a member's cubic track and
+  // the integrated motion at a slice's midpoint; longer slices are halved
+  // (core/compliant_group.hpp, track_error_estimate). 0 = no check.
+  double track_tolerance = 0.01;
   // Relaxed-cluster switch: a cluster whose internal kinetic energy stayed
   // at or below relax_energy for relax_time is carried as a rigid body until
   // a contact or a bond disturbs it; relax_energy = 0 never switches.

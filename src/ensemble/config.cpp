@@ -373,6 +373,9 @@ const std::vector<KeyDesc>& key_table() {
       key<&S::compliant, &P::slice>("compliant.slice", closed(1e-4, 10),
           "longest slice (time) a compliant cluster is integrated ahead of the event loop; its members move "
           "on the cubic Hermite interpolant of the slice's end states"),
+      key<&S::compliant, &P::track_tolerance>("compliant.track_tolerance", at_least(0),
+          "largest estimated distance (length) between a member's cubic track and the integrated motion at a "
+          "slice's midpoint; a slice that strays further is halved (stiff bonds); 0 = no check"),
       key<&S::compliant, &P::relax_energy>("compliant.relax_energy", at_least(0),
           "relaxed-cluster switch: internal kinetic energy at or below which a cluster counts as quiet; "
           "0 = always integrate"),
