@@ -439,6 +439,39 @@ bool python_with_matplotlib() {
   return run("/usr/bin/python3 -c 'import numpy, matplotlib' >/dev/null 2>&1") == 0;
 }
 
+// A replicate that ends in an error still writes its snapshot, at the time it
+// stopped, for debugging (it used to write none). The resting pair of
+// InelasticCollapse.FrozenTimeEndsTheRunWithAnError stops time at 0.2194;
+// the snapshot's bodies are where the run left them: no overlaps, in the box.
+TEST(Snapshot, AReplicateThatFailsWritesItsLastConfiguration) {
+  TempDir dir;
+  SimParams p;
+  p.bonding.enabled = false;
+  p.contact.restitution_sphere = 0.0;
+  p.run.min_separation_speed = 0.0;
+  p.run.t_max = 1.0;
+  ReplicateIo io;
+  io.snapshot_path = (dir.path / "failed.xyz").string();
+  const nlohmann::json result = run_replicate(p, 3, 0, io);
+  ASSERT_EQ(result.at("termination").get<std::string>(), "error");
+  std::ifstream in(io.snapshot_path);
+  ASSERT_TRUE(in.good());
+  const Snapshot snap = read_extended_xyz(in);
+  EXPECT_NEAR(snap.time, result.at("t_end").get<double>(), 1e-9);
+  ASSERT_EQ(static_cast<int>(snap.bodies.size()), p.init.spheres + p.init.linkers);
+  for (std::size_t i = 0; i < snap.bodies.size(); ++i) {
+    const SnapshotBody& a = snap.bodies[i];
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_GE(a.x[d], a.radius - 1e-6) << i;  // reflective box
+      EXPECT_LE(a.x[d], p.geometry.box_length - a.radius + 1e-6) << i;
+    }
+    for (std::size_t j = i + 1; j < snap.bodies.size(); ++j) {
+      const SnapshotBody& c = snap.bodies[j];
+      if (a.sphere && c.sphere) EXPECT_GE((a.x - c.x).norm(), a.radius + c.radius - 1e-6) << i << " " << j;
+    }
+  }
+}
+
 // A replicate's VTK bond points are the ends that actually bonded, not the
 // ends nearest the sphere. With a capture distance this large (r_c = 3, filters
 // off) a sphere can bond both ends of one linker, both ends lying inside its

@@ -41,7 +41,8 @@ struct ReplicateIo {
 // Runs one replicate with the given settings and returns the result object
 // (the `--json` output). With a snapshot path, also writes the final
 // configuration (core/snapshot.hpp): extended XYZ, or legacy VTK when the
-// path ends in ".vtk". Throws ConfigError / SceneError on bad input,
+// path ends in ".vtk"; a run that ends in an error writes the configuration
+// at the time it stopped, for debugging. Throws ConfigError / SceneError on bad input,
 // std::runtime_error when the snapshot cannot be written.
 // The N_t series holds the steady-state monitor's samples,
 // `run.sample_interval` apart from t = 0.
