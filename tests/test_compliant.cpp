@@ -286,17 +286,23 @@ INSTANTIATE_TEST_SUITE_P(Compliant, Oscillator,
 
 class Conservation : public ::testing::TestWithParam<Method> {};
 
+// The four-corner chain displaced by up to dx, its linkers turned by up to
+// drot_deg, every body moving and turning (seed 3).
+CompliantCluster moving_chain(const CompliantParams& cp, double dx, double drot_deg) {
+  test::ChainSetup setup;
+  setup.dx = dx;
+  setup.drot_deg = drot_deg;
+  setup.v = 0.5;
+  setup.omega = 0.5;
+  setup.seed = 3;
+  return test::four_corner_chain(cp, both_filters(), setup);
+}
+
 // c = c_omega = 0: energy conserved to the solver tolerance.
 TEST_P(Conservation, EnergyWithoutDamping) {
   CompliantParams cp = scenario5();
   cp.c = cp.c_omega = 0.0;
-  test::ChainSetup setup;
-  setup.dx = 0.2;
-  setup.drot_deg = 8.0;
-  setup.v = 0.5;
-  setup.omega = 0.5;
-  setup.seed = 3;
-  const CompliantCluster c = test::four_corner_chain(cp, both_filters(), setup);
+  const CompliantCluster c = moving_chain(cp, 0.2, 8.0);
   IntegratorOptions o;
   o.method = GetParam();
   o.rtol = 1e-10;
@@ -421,14 +427,7 @@ double hermite_midpoint_error(const CompliantCluster& a, const CompliantCluster&
 // O(D^6), so estimate / error -> 1 as D -> 0; over a slice of a bond period
 // the tracks are useless and the estimate must say so.
 TEST(TrackErrorEstimate, MatchesTheTracksErrorAndFlagsSlicesLongerThanABondPeriod) {
-  CompliantParams cp = scenario5();
-  test::ChainSetup setup;
-  setup.dx = 0.05;
-  setup.drot_deg = 5.0;
-  setup.v = 0.5;
-  setup.omega = 0.5;
-  setup.seed = 3;
-  const CompliantCluster c = test::four_corner_chain(cp, both_filters(), setup);
+  const CompliantCluster c = moving_chain(scenario5(), 0.05, 5.0);
   IntegratorOptions o;
   o.rtol = 1e-12;
   o.atol = 1e-14;
