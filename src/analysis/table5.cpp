@@ -85,7 +85,13 @@ TextTable text_cells(const std::vector<ScenarioResult>& scenarios) {
     if (sweep) cells.push_back(sc.sweep);
     for (const Metric& m : kMetrics) {
       const ObservableSummary& o = row_of(s, m.name);
-      cells.push_back(mean_pm_ci(o.mean, o.ci95, m.percent ? 100.0 : 1.0, m.decimals));
+      std::string cell = mean_pm_ci(o.mean, o.ci95, m.percent ? 100.0 : 1.0, m.decimals);
+      // tau_tar of a replicate without a target counts as its t_end: with
+      // any such replicate the mean is a lower bound, and with only such
+      // replicates (n_censored = n) it is t_end itself, not a time measured.
+      if (o.n_censored > 0 && std::isfinite(o.mean))
+        cell = o.n_censored == o.n ? "≥ " + fixed(o.mean, m.decimals) + " (all censored)" : "≥ " + cell;
+      cells.push_back(std::move(cell));
     }
     cells.push_back(std::to_string(s.n_ok));
     cells.push_back(std::to_string(s.n_failed));
