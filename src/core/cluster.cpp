@@ -107,7 +107,7 @@ void cluster_impulse(Cluster& c, const Box& box, double t, const Vec3& J, const 
   c.max_rate = c.rot.max_rate();
 }
 
-int merge_groups(BodyStore& b, const Box& box, int a, int other, double t) {
+int merge_groups(BodyStore& b, const Box& box, int a, int other, double t, bool sphere_inertia) {
   Part pa = part_of(b, a, t);
   Part pb = part_of(b, other, t);
   // Put b's group in the periodic image nearest to a's centre of mass.
@@ -129,7 +129,8 @@ int merge_groups(BodyStore& b, const Box& box, int a, int other, double t) {
       const Species& s = b.sp(p->members[k]);
       const Vec3 r = p->x[k] - com;
       // Parallel-axis theorem: I_com = I_own + m (|r|^2 1 - r r^T).
-      inertia += body_inertia(s, p->u[k]) + s.mass * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
+      const Mat3 own = sphere_inertia || s.shape != Shape::Sphere ? body_inertia(s, p->u[k]) : Mat3::Zero();
+      inertia += own + s.mass * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
     }
   }
   const Eigen::SelfAdjointEigenSolver<Mat3> eig(inertia);

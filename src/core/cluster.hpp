@@ -15,7 +15,13 @@ namespace ringsim {
 // body b at time t into a new cluster and returns its id. Positions of b's
 // group are taken in the periodic image nearest to a's. Every member gets its
 // offset and body-frame axis; the old clusters are retired.
-int merge_groups(BodyStore& b, const Box& box, int a, int other, double t);
+// sphere_inertia = false: spheres enter the inertia as point masses, their own
+// rotational inertia left out. A relaxed compliant cluster carries its smooth
+// spheres' spins aside (BodyStore::held_spin): they do not turn with it, and
+// waking it gives each sphere its held spin back, so the rigid body must not
+// hold a share of their rotation either (docs/COMPLIANT.md, "Relaxed-cluster
+// switch").
+int merge_groups(BodyStore& b, const Box& box, int a, int other, double t, bool sphere_inertia = true);
 
 // Moves cluster c's reference time to t (same trajectory; periodic boxes: the
 // centre of mass is wrapped into the box).

@@ -191,9 +191,12 @@ void Simulation::relax_group(int g, double t, bool burst) {
   }
   // One rigid body with the present relative pose: a perfectly inelastic
   // merge (momentum and angular momentum kept; the small internal kinetic
-  // energy and the spins' energy go).
+  // energy and the linkers' spins' energy go). The spheres enter it as point
+  // masses: their spins are held aside and do not turn with it, so that
+  // wake_cluster gives them back exactly.
   int cluster = -1;
-  for (std::size_t k = 1; k < G.members.size(); ++k) cluster = merge_groups(bodies_, box_, G.members[0], G.members[k], t);
+  for (std::size_t k = 1; k < G.members.size(); ++k)
+    cluster = merge_groups(bodies_, box_, G.members[0], G.members[k], t, false);
   double after = group_kinetic_energy(bodies_, G.members[0]);
   for (int m : G.members) after += 0.5 * bodies_.sp(m).i_perp * bodies_.held_spin[m].squaredNorm();
   (burst ? stats_.lost_bursts : stats_.lost_relaxed) += before - after;
