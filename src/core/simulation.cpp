@@ -699,14 +699,22 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
     law.restitution = 1.0;
   }
   law.min_separation = params_.run.min_separation_speed;
-  const ContactResult r = solve_contact(body, wall, n, law);
-  stats_.lost_contacts += r.energy_loss;
-  if (r.floored) ++stats_.floored;
-  if (r.mode == ContactMode::Stick) ++stats_.stick;
-  if (r.mode == ContactMode::Slide) ++stats_.slide;
-  apply_impulse(i, -r.impulse, body.arm);
-  ext_impulse_ -= r.impulse;
-  ext_angular_ += p.cross(-r.impulse);
+  // As in process_collision: the prediction fired because the contact point
+  // approaches the wall, unless touch() has just merged a compliant cluster
+  // at the end of a contact burst and the rigid body no longer approaches it.
+  // Then only the separation floor (an impulse would pull it back and stop
+  // it at the wall).
+  const bool approaching = n.dot(relative_point_velocity(body, wall)) < 0.0;
+  const ContactResult r = approaching ? solve_contact(body, wall, n, law) : separation_floor(body, wall, n, law);
+  if (approaching || r.floored) {
+    stats_.lost_contacts += r.energy_loss;
+    if (r.floored) ++stats_.floored;
+    if (r.mode == ContactMode::Stick) ++stats_.stick;
+    if (r.mode == ContactMode::Slide) ++stats_.slide;
+    apply_impulse(i, -r.impulse, body.arm);
+    ext_impulse_ -= r.impulse;
+    ext_angular_ += p.cross(-r.impulse);
+  }
   bump(i, t);
   ++stats_.wall_collisions;
   if (termination_ != Termination::Running) return;
