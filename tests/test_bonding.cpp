@@ -475,6 +475,45 @@ TEST(RigidCluster, PairMeetingAgainThroughThePeriodicBoundaryIsNotSkipped) {
   EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
 }
 
+TEST(RigidCluster, ClusterFlyingTwoTurnsWithoutAnImpulseStillCollides) {
+  // A cluster's reference point (its centre of mass) is wrapped into the box
+  // only when the cluster takes an impulse; in free flight it moves on, past
+  // 1.5 box lengths after two turns. The minimum image of two reference
+  // points was one shift of L, which left such a difference unreduced: the
+  // cluster's searches saw the bounding spheres apart and it passed through
+  // a sphere at rest (found by an energy-ledger sweep: periodic box of 13,
+  // tiny spheres, fast clusters).
+  // The sphere-linker cluster of the test above, bonded at t = 0 and moving
+  // at V = (1, w, 0); sphere 1 at rest at offset (1, 3, 0) from sphere 0. The
+  // offset (1 - t + k L, 3 - w t) has length 2.25 at the first turn (no
+  // contact) and touches at the second (k = 2).
+  SimParams p = bonding_params();
+  p.geometry.boundary = Boundary::Periodic;
+  p.geometry.box_length = 20.0;
+  p.run.t_max = 60.0;
+  const double L = p.geometry.box_length, rc = p.bonding.capture_distance;
+  const double w = 1.5 / (2.0 * L);
+  const Vec3 c(10, 10, 10), V(1.0, w, 0.0);
+  const double below = 1.0 + 0.5 * rc + 0.5 * p.geometry.linker_length;
+  BodyStore b = make_bodies(p, {{Shape::Sphere, c, V, Vec3::UnitZ(), kZero},
+                                {Shape::Sphere, c + Vec3(1.0, 3.0, 0), kZero, Vec3::UnitZ(), kZero},
+                                {Shape::Linker, c - below * Vec3::UnitZ(), V, Vec3::UnitZ(), kZero}});
+  Simulation sim(p, std::move(b));
+  ASSERT_EQ(sim.stats().bonds, 1);
+  ASSERT_GE(sim.bodies().group[0], 0);
+  while (sim.stats().collisions == 0 && sim.step()) {
+  }
+  ASSERT_EQ(sim.stats().collisions, 1);
+  // First root of (1 - t + 2 L)^2 + (3 - w t)^2 = 4.
+  const double x0 = 1.0 + 2.0 * L, qa = 1.0 + w * w, qb = -2.0 * x0 - 6.0 * w, qc = x0 * x0 + 5.0;
+  const double t_touch = (-qb - std::sqrt(qb * qb - 4.0 * qa * qc)) / (2.0 * qa);
+  const double delta = p.run.contact_tolerance;
+  const double rate = std::abs(2.0 * qa * t_touch + qb) / 4.0;  // d|offset|/dt there
+  EXPECT_NEAR(sim.time(), t_touch, delta / rate);
+  sim.run();
+  EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
+}
+
 TEST(Termination, NoBondPossibleOnceTheOnlyOpenSitesShareACluster) {
   // One sphere and one linker: after the capture the sphere has one free
   // valency and the linker one free end, but they are one rigid body.

@@ -44,15 +44,24 @@ inline constexpr double kNever = std::numeric_limits<double>::infinity();
 struct Box {
   double length;
   bool periodic;
-  // Minimum image of a separation. Centres stay within [0, L) up to the
-  // motion since their last cell event (they wrap when they cross the box
-  // face), so |d| < 1.5 L and one conditional shift per component suffices.
+  // Minimum image of a separation. Free bodies' centres stay within [0, L)
+  // up to the motion since their last cell event (they wrap when they cross
+  // the box face), so one conditional shift per component usually suffices.
+  // A rigid cluster's centre of mass is wrapped only when it takes an impulse
+  // (core/cluster.cpp): in free flight it, and its members' centres, move on
+  // without bound, so a separation still out of range after the shift is
+  // reduced by the nearest multiple of L.
   Vec3 min_image(Vec3 d) const {
     if (periodic) {
       const double half = 0.5 * length;
       for (int k = 0; k < 3; ++k) {
-        if (d[k] > half) d[k] -= length;
-        else if (d[k] < -half) d[k] += length;
+        if (d[k] > half) {
+          d[k] -= length;
+          if (d[k] > half) d[k] -= length * std::nearbyint(d[k] / length);
+        } else if (d[k] < -half) {
+          d[k] += length;
+          if (d[k] < -half) d[k] -= length * std::nearbyint(d[k] / length);
+        }
       }
     }
     return d;
