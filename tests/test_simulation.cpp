@@ -451,6 +451,25 @@ TEST(Validation, BodiesStartingAtRestAndSpinningKeepMomentum) {
   EXPECT_LT(run.report.max_energy_error, 1e-12);
 }
 
+TEST(Validation, PeriodicBoxIgnoresTheWallsContactSettings) {
+  // A periodic box has no walls: wall restitution and wall friction do not
+  // act, so elastic, smooth bodies conserve energy and the validator checks
+  // |dE| both ways. It took wall friction into account, and then only
+  // checked for energy gains (a frictional wall made any run "dissipative").
+  SimParams p = periodic_hard_bodies(12, 12, 12.0, 3000);
+  p.contact.restitution_wall = 0.3;
+  p.contact.static_friction_wall = 0.8;
+  p.contact.dynamic_friction_wall = 0.5;
+  const ValidatedRun run = validated_run(p, 2);
+  EXPECT_TRUE(run.energy_conserving);
+  EXPECT_EQ(run.report.overlaps, 0);
+  EXPECT_LT(run.report.max_energy_error, 1e-12);
+  // The same settings with walls: not conserving.
+  p.geometry.boundary = Boundary::Reflective;
+  Simulation walls(p, build_scene(p, 2, 0, nullptr));
+  EXPECT_FALSE(Validator(walls).energy_conserving());
+}
+
 TEST(Regression, GrazingWallContactOfALinkerDoesNotStall) {
   // Seed 1001 of the default scene once froze at t = 442.7643: a linker in
   // the contact band (gap 3e-15) whose single support point looked separating

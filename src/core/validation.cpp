@@ -15,9 +15,12 @@ namespace ringsim {
 
 Validator::Validator(const Simulation& sim, double slack) : slack_(slack) {
   const ContactParams& c = sim.params().contact;
-  const bool frictionless = c.static_friction_sphere == 0 && c.static_friction_linker == 0 && c.static_friction_wall == 0 &&
-                            c.dynamic_friction_sphere == 0 && c.dynamic_friction_linker == 0 && c.dynamic_friction_wall == 0;
-  const bool walls_elastic = sim.box().periodic || c.restitution_wall == 1.0;
+  // A periodic box has no walls: their restitution and friction do not act.
+  const bool periodic = sim.box().periodic;
+  const bool walls_smooth = periodic || (c.static_friction_wall == 0 && c.dynamic_friction_wall == 0);
+  const bool frictionless = c.static_friction_sphere == 0 && c.static_friction_linker == 0 && c.dynamic_friction_sphere == 0 &&
+                            c.dynamic_friction_linker == 0 && walls_smooth;
+  const bool walls_elastic = periodic || c.restitution_wall == 1.0;
   // Bonds are perfectly inelastic merges: with bonding, energy may only fall.
   elastic_ = frictionless && walls_elastic && c.restitution_sphere == 1.0 && c.restitution_linker == 1.0 &&
              !sim.params().bonding.enabled;
