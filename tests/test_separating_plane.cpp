@@ -80,6 +80,27 @@ TEST(SeparatingPlane, AdvanceReturnsWhenNoStepCanMoveTheTime) {
   EXPECT_LT(evaluations, 100);
 }
 
+TEST(SeparatingPlane, AdvanceReturnsWhenOnlyStepsBelowTheResolutionAreCertified) {
+  // The same with a first trial that does move t: a gap of 5.6e-16 closing at
+  // 0.43 at t = 10.68 (one ulp 1.8e-15). The trial of 0.9 gap / rate = 1.1e-15
+  // rounds up to one ulp, where the gap would be negative: rejected, halved
+  // to 5.5e-16, which rounds to no move at all and so is "certified" (an
+  // interval of zero width). t never moved and the search spun through its
+  // budget, 2^30 for a wall: a linker lying flat on a wall after a contact at
+  // restitution 0 hung a replicate (found by the energy-ledger sweep).
+  SeparatingPlane pl;
+  pl.t0 = 10.679877415302142;
+  pl.offset = 5.551e-16;
+  pl.slope = -0.4299;
+  pl.a = SupportTrack::constant(0.0);
+  pl.b = SupportTrack::constant(0.0);
+  const double s = pl.at(pl.t0);
+  long evaluations = 0;
+  const double t = advance_plane(pl, pl.t0, 11.8389, 0.05 * s, 0.075 * s, 2.27314, &evaluations, 1 << 22);
+  EXPECT_EQ(t, pl.t0);
+  EXPECT_LT(evaluations, 100);
+}
+
 TEST(SeparatingPlane, PlaneNeverExceedsTrueDistance) {
   SimParams p;
   const Species L = make_species(Shape::Linker, p);

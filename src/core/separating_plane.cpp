@@ -183,6 +183,10 @@ double advance_plane(const SeparatingPlane& plane, double t, double end, double 
       }
       ++*evaluations;
       if (plane.lower_bound(t, t + trial, s) > target) {
+        // A trial halved below the resolution of t is certified trivially
+        // (an interval of zero width) and does not move t: the same state
+        // again, for the whole budget. Hand back as above.
+        if (t + trial == t) return t;
         t += trial;
         step = 2.0 * trial;
         break;
