@@ -79,10 +79,10 @@ void Simulation::cut_group(int g, double t) {
 
 bool Simulation::begin_slice(int g, double t) {
   CompliantGroup& G = cgroups_[g];
-  // A slice that follows the last one starts from its end state, whose
-  // accelerations that slice's check computed; after a cut, a bond or a new
-  // integrator (pending) the state is new.
-  const bool follows = !G.pending && G.end_cached && G.end_time == t;
+  // A slice that follows the last one (at its end tb) starts from its end
+  // state, whose accelerations that slice's check computed; after a cut, a
+  // bond or a new integrator (pending) the state is new.
+  const bool follows = !G.pending && G.end_cached && G.tb == t;
   G.end_cached = false;
   if (G.pending) G.integ->reinit_at(t);
   G.pending = false;
@@ -130,7 +130,6 @@ bool Simulation::begin_slice(int g, double t) {
     G.end_cached = false;
     D *= 0.5;
   }
-  G.end_time = t + D;
   // The next slice starts from the length the tolerance allowed, and doubles
   // back towards compliant.slice while the estimate (~ D^4) leaves room.
   if (track_halved) G.track_slice = D;

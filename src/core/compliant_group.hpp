@@ -48,7 +48,6 @@ struct CompliantGroup {
   // computed them): the next slice's start, unless a cut comes first.
   SliceEnd end;
   bool end_cached = false;
-  double end_time = 0.0;
   // Relaxed-cluster switch (core/compliant_group.cpp): start of the present
   // quiet stretch (internal kinetic energy below the tolerance at every slice
   // boundary since then); NaN while not quiet.
@@ -69,7 +68,6 @@ struct CompliantGroup {
 // caller shortens the slice when it is small (a turn of more than ~1 rad).
 double set_tracks(BodyStore& b, const CompliantGroup& g, const std::vector<CompliantBody>& sa, double ta,
                   const std::vector<CompliantBody>& sb, double tb);
-
 
 // An estimate of how far the cubic Hermite tracks of a slice of length D
 // stray from the motion the integrator followed: for every member, the
