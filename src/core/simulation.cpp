@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <tuple>
@@ -653,22 +654,9 @@ void Simulation::process_collision(int i, int j, double t) {
   const ContactSide a = contact_side(bodies_, i, t, p, g.center_a);
   const ContactSide b = contact_side(bodies_, j, t, p, g.center_b);
   const ContactLaw law = pair_law(i, j, t);
-  // The prediction fired because the pair approaches in this very frame
-  // (Predictor::approach_rate), so the impulse pushes them apart; unless
-  // touch() has just merged a compliant cluster at the end of a contact burst
-  // (an inelastic merge changes the members' velocities) and the pair no
-  // longer approaches: then no impulse (one would pull), and the next
-  // prediction, in the same frame, sees them separate.
-  const Vec3& n = frame.normal;
-  const bool approaching = n.dot(relative_point_velocity(a, b)) < 0.0;
-  const ContactResult r = approaching ? solve_contact(a, b, n, law) : separation_floor(a, b, n, law);
-  if (approaching || r.floored) {
-    stats_.lost_contacts += r.energy_loss;
-    apply_impulse(i, -r.impulse, a.arm);
-    apply_impulse(j, r.impulse, b.arm);
-    if (r.mode == ContactMode::Stick) ++stats_.stick;
-    if (r.mode == ContactMode::Slide) ++stats_.slide;
-    if (r.floored) ++stats_.floored;
+  if (const std::optional<ContactResult> r = fired_contact(a, b, frame.normal, law)) {
+    apply_impulse(i, -r->impulse, a.arm);
+    apply_impulse(j, r->impulse, b.arm);
   }
   bump(i, t);
   bump(j, t);
@@ -679,6 +667,25 @@ void Simulation::process_collision(int i, int j, double t) {
   if (params_.run.partner_horizon) expire_group(j, t);
   predict_group(i, t);
   predict_group(j, t);
+}
+
+std::optional<ContactResult> Simulation::fired_contact(const ContactSide& a, const ContactSide& b, const Vec3& n,
+                                                      const ContactLaw& law) {
+  // The prediction fired because the contact points approach along n
+  // (Predictor::approach_rate), so the impulse pushes them apart; unless
+  // touch() has just merged a compliant cluster at the end of a contact burst
+  // (an inelastic merge changes the members' velocities) and they no longer
+  // approach: then only the separation floor (a full impulse would pull them
+  // together, or a body back to the wall), and the next prediction sees them
+  // separate.
+  const bool approaching = n.dot(relative_point_velocity(a, b)) < 0.0;
+  const ContactResult r = approaching ? solve_contact(a, b, n, law) : separation_floor(a, b, n, law);
+  if (!approaching && !r.floored) return std::nullopt;
+  stats_.lost_contacts += r.energy_loss;
+  if (r.floored) ++stats_.floored;
+  if (r.mode == ContactMode::Stick) ++stats_.stick;
+  if (r.mode == ContactMode::Slide) ++stats_.slide;
+  return r;
 }
 
 void Simulation::process_wall(int i, const Event& ev, double t) {
@@ -699,21 +706,10 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
     law.restitution = 1.0;
   }
   law.min_separation = params_.run.min_separation_speed;
-  // As in process_collision: the prediction fired because the contact point
-  // approaches the wall, unless touch() has just merged a compliant cluster
-  // at the end of a contact burst and the rigid body no longer approaches it.
-  // Then only the separation floor (an impulse would pull it back and stop
-  // it at the wall).
-  const bool approaching = n.dot(relative_point_velocity(body, wall)) < 0.0;
-  const ContactResult r = approaching ? solve_contact(body, wall, n, law) : separation_floor(body, wall, n, law);
-  if (approaching || r.floored) {
-    stats_.lost_contacts += r.energy_loss;
-    if (r.floored) ++stats_.floored;
-    if (r.mode == ContactMode::Stick) ++stats_.stick;
-    if (r.mode == ContactMode::Slide) ++stats_.slide;
-    apply_impulse(i, -r.impulse, body.arm);
-    ext_impulse_ -= r.impulse;
-    ext_angular_ += p.cross(-r.impulse);
+  if (const std::optional<ContactResult> r = fired_contact(body, wall, n, law)) {
+    apply_impulse(i, -r->impulse, body.arm);
+    ext_impulse_ -= r->impulse;
+    ext_angular_ += p.cross(-r->impulse);
   }
   bump(i, t);
   ++stats_.wall_collisions;

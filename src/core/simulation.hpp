@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -176,6 +177,10 @@ class Simulation {
 
  private:
   void predict(int i, double t);
+  // The impulse of a contact that fired (process_collision, process_wall),
+  // counted in the stats; nullopt when there is none to apply.
+  std::optional<ContactResult> fired_contact(const ContactSide& a, const ContactSide& b, const Vec3& n,
+                                             const ContactLaw& law);
   void predict_group(int i, double t);  // i and, for a member, its whole cluster
   // f(m) for every body that moves with i: its compliant group's members, its
   // rigid cluster's members, or i alone.
