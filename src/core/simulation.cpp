@@ -826,7 +826,9 @@ bool Simulation::step() {
 Termination Simulation::run() {
   while (step()) {
   }
-  if (termination_ != Termination::Error) synchronize(now_);
+  // Also after an error: the state stands where the run stopped (every
+  // trajectory is defined there), which the snapshot and the output show.
+  synchronize(now_);
   collect_integrator_stats();
   return termination_;
 }

@@ -2,7 +2,6 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <limits>
@@ -11,7 +10,6 @@
 
 #include "core/cluster.hpp"
 #include "core/motion.hpp"
-#include "core/pose.hpp"
 #include "core/scene.hpp"
 #include "core/simulation.hpp"
 #include "core/snapshot.hpp"
@@ -26,21 +24,7 @@ namespace {
 
 void write_snapshot(const Simulation& sim, const SimParams& params, std::uint64_t seed, std::uint64_t replicate,
                     const std::string& path) {
-  // A finished run is synchronized: every kin holds the final pose. One that
-  // ended in an error is not (it stops where it failed), so its poses are
-  // evaluated at that time, as the validator does.
-  const BodyStore& b = sim.bodies();
-  const bool synchronized = sim.termination() != Termination::Error;
-  const double t = sim.time();
-  const double L = params.geometry.box_length;
-  auto center = [&](int i) {
-    if (synchronized) return Vec3(b.kin[i].x);
-    Vec3 x = body_center(b, i, t);
-    if (params.geometry.boundary == Boundary::Periodic)
-      for (int d = 0; d < 3; ++d) x[d] -= L * std::floor(x[d] / L);
-    return x;
-  };
-  auto axis = [&](int i) { return synchronized ? Vec3(b.kin[i].axis.normalized()) : Vec3(body_axis(b, i, t).normalized()); };
+  const BodyStore& b = sim.bodies();  // synchronized, also after an error: every kin holds the last pose
   Snapshot snap;
   snap.time = sim.time();
   snap.box_length = params.geometry.box_length;
@@ -49,8 +33,8 @@ void write_snapshot(const Simulation& sim, const SimParams& params, std::uint64_
                  std::to_string(replicate);
   for (int i = 0; i < b.size(); ++i) {
     const Species& s = b.sp(i);
-    snap.bodies.push_back(SnapshotBody{s.shape == Shape::Sphere, center(i),
-                                       s.shape == Shape::Sphere ? Vec3(Vec3::UnitZ()) : axis(i),
+    snap.bodies.push_back(SnapshotBody{s.shape == Shape::Sphere, b.kin[i].x,
+                                       s.shape == Shape::Sphere ? Vec3(Vec3::UnitZ()) : Vec3(b.kin[i].axis.normalized()),
                                        s.radius, s.half_length, sim.graph().component(i)});
   }
   snap.bonds = sim.graph().bonds();
