@@ -26,6 +26,15 @@ namespace {
 using test::Init;
 using test::make_bodies;
 
+// Runs sim to its end in validation mode (it must not end in an error);
+// the validator's report.
+ValidationReport run_validated(Simulation& sim) {
+  Validator v(sim);
+  sim.set_validator(&v);
+  EXPECT_NE(sim.run(), Termination::Error) << sim.error();
+  return v.report();
+}
+
 SimParams compliant_params() {
   SimParams p;
   p.geometry.box_length = 40.0;
@@ -180,13 +189,11 @@ TEST(CompliantChain, RelaxedClusterMovesRigidlyUntilDisturbed) {
                                Vec3(0, 0, 0.2)}};
     Simulation sim(p, make_bodies(p, init));
     EXPECT_EQ(sim.stats().bonds, 1);
-    Validator v(sim);
-    sim.set_validator(&v);
-    EXPECT_NE(sim.run(), Termination::Error) << sim.error();
-    EXPECT_EQ(v.report().overlaps, 0);
-    EXPECT_LT(v.report().max_momentum_error, 1e-12);
-    EXPECT_LT(v.report().max_angular_momentum_error, 1e-6);
-    EXPECT_LT(v.report().max_energy_error, 1e-5);
+    const ValidationReport rep = run_validated(sim);
+    EXPECT_EQ(rep.overlaps, 0);
+    EXPECT_LT(rep.max_momentum_error, 1e-12);
+    EXPECT_LT(rep.max_angular_momentum_error, 1e-6);
+    EXPECT_LT(rep.max_energy_error, 1e-5);
     return std::make_tuple(sim.stats(), Vec3(body_center(sim.bodies(), 1, sim.time()) - body_center(sim.bodies(), 0, sim.time())),
                            mechanical_totals(sim.bodies(), sim.time()).energy);
   };
@@ -231,18 +238,16 @@ TEST(CompliantChain, WakingATurningRelaxedClusterKeepsAngularMomentumAndEnergy) 
                             {Shape::Linker, xl, V + W.cross(xl - com), -Vec3::UnitX(), W}};
   Simulation sim(p, make_bodies(p, init));
   ASSERT_EQ(sim.stats().bonds, 1);
-  Validator v(sim);
-  sim.set_validator(&v);
-  EXPECT_NE(sim.run(), Termination::Error) << sim.error();
+  const ValidationReport rep = run_validated(sim);
   EXPECT_GE(sim.stats().relaxed, 1);
   EXPECT_GE(sim.stats().woken, 1);
-  EXPECT_EQ(v.report().overlaps, 0);
-  EXPECT_LT(v.report().max_momentum_error, 1e-12);
-  EXPECT_LT(v.report().max_angular_momentum_error, 1e-6);
+  EXPECT_EQ(rep.overlaps, 0);
+  EXPECT_LT(rep.max_momentum_error, 1e-12);
+  EXPECT_LT(rep.max_angular_momentum_error, 1e-6);
   const EnergyBudget e = sim.energy_budget();
   EXPECT_LT(std::abs(e.dampers), 1e-4 * e.initial) << "lost_relaxed " << e.relaxed;
   std::printf("relaxed %ld, woken %ld, dL %.1e, ledger rest %.1e of %.3f\n", (long)sim.stats().relaxed,
-              (long)sim.stats().woken, v.report().max_angular_momentum_error, e.dampers, e.initial);
+              (long)sim.stats().woken, rep.max_angular_momentum_error, e.dampers, e.initial);
 }
 
 TEST(CompliantChain, ContactBurstEndsInRigidMotionWithoutOverlapOrEnergyGain) {
@@ -260,12 +265,10 @@ TEST(CompliantChain, ContactBurstEndsInRigidMotionWithoutOverlapOrEnergyGain) {
   // (linker end 1 = x - h u faces the sphere)
   Simulation sim(p, make_bodies(p, init));
   ASSERT_EQ(sim.stats().bonds, 1);
-  Validator val(sim);
-  sim.set_validator(&val);
-  EXPECT_NE(sim.run(), Termination::Error) << sim.error();
-  EXPECT_EQ(val.report().overlaps, 0) << "first overlap at t = " << val.report().first_overlap_time;
-  EXPECT_LT(val.report().max_momentum_error, 1e-12);  // the wall's impulses accounted
-  EXPECT_LT(val.report().max_energy_error, 1e-5);
+  const ValidationReport rep = run_validated(sim);
+  EXPECT_EQ(rep.overlaps, 0) << "first overlap at t = " << rep.first_overlap_time;
+  EXPECT_LT(rep.max_momentum_error, 1e-12);  // the wall's impulses accounted
+  EXPECT_LT(rep.max_energy_error, 1e-5);
   EXPECT_GE(sim.stats().wall_collisions, 3);
   EXPECT_GE(sim.stats().bursts, 1);
   // It left the wall: moving away from it at the end.
@@ -298,12 +301,10 @@ TEST(CompliantChain, BurstAtAWallNeverPullsTheClusterBack) {
                              Vec3::Zero()}};
   Simulation sim(p, make_bodies(p, init));
   ASSERT_EQ(sim.stats().bonds, 1);
-  Validator val(sim);
-  sim.set_validator(&val);
-  EXPECT_NE(sim.run(), Termination::Error) << sim.error();
+  const ValidationReport rep = run_validated(sim);
   EXPECT_GE(sim.stats().bursts, 1);
-  EXPECT_EQ(val.report().overlaps, 0);
-  EXPECT_LT(val.report().max_momentum_error, 1e-12);
+  EXPECT_EQ(rep.overlaps, 0);
+  EXPECT_LT(rep.max_momentum_error, 1e-12);
   // Elastic and smooth: contacts lose nothing (the floor may add ~1e-12).
   const EnergyBudget e = sim.energy_budget();
   EXPECT_LT(e.contacts, 1e-9) << "floored " << sim.stats().floored;
@@ -331,12 +332,10 @@ TEST(CompliantChain, BurstKeepsUnitAxesNearMinusZ) {
                             {Shape::Linker, sphere - (1 + g + 2) * u, v, u, Vec3::Zero()}};
   Simulation sim(p, make_bodies(p, init));
   ASSERT_EQ(sim.stats().bonds, 1);
-  Validator val(sim);
-  sim.set_validator(&val);
-  EXPECT_NE(sim.run(), Termination::Error) << sim.error();
+  const ValidationReport rep = run_validated(sim);
   EXPECT_GE(sim.stats().bursts, 1);
-  EXPECT_EQ(val.report().overlaps, 0) << "first overlap at t = " << val.report().first_overlap_time;
-  EXPECT_LT(val.report().max_axis_error, 1e-14);
+  EXPECT_EQ(rep.overlaps, 0) << "first overlap at t = " << rep.first_overlap_time;
+  EXPECT_LT(rep.max_axis_error, 1e-14);
 }
 
 // A free sphere capturing one end of a free linker whose other end is far
@@ -438,12 +437,10 @@ TEST(CompliantScenario, StiffBondsGetSlicesTheirTracksCanFollow) {
   auto run = [&](double tolerance, std::uint64_t seed) {
     p.compliant.track_tolerance = tolerance;
     Simulation sim(p, build_scene(p, seed, 0, nullptr));
-    Validator v(sim);
-    sim.set_validator(&v);
-    EXPECT_NE(sim.run(), Termination::Error) << sim.error();
+    const ValidationReport rep = run_validated(sim);
     EXPECT_EQ(sim.stats().bonds, 3);
-    EXPECT_EQ(v.report().overlaps, 0);
-    return v.report();
+    EXPECT_EQ(rep.overlaps, 0);
+    return rep;
   };
   for (std::uint64_t seed : {1, 2}) {
     const ValidationReport checked = run(CompliantParams{}.track_tolerance, seed);
