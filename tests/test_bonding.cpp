@@ -442,6 +442,32 @@ TEST(ValidationWithBonds, PeriodicBoxClustersAcrossTheBoundary) {
   EXPECT_TRUE(straddled) << "no cluster crosses the boundary at the end; the test did not exercise it";
 }
 
+// Sphere 0 at c, bonded at t = 0 to a linker below it along z (end 0 in
+// the shell), the two moving at V; sphere 1 at offset (1, 3, 0) from sphere
+// 0, moving at U.
+BodyStore cluster_and_sphere(const SimParams& p, const Vec3& c, const Vec3& V, const Vec3& U) {
+  const double below = 1.0 + 0.5 * p.bonding.capture_distance + 0.5 * p.geometry.linker_length;
+  return make_bodies(p, {{Shape::Sphere, c, V, Vec3::UnitZ(), kZero},
+                         {Shape::Sphere, c + Vec3(1.0, 3.0, 0), U, Vec3::UnitZ(), kZero},
+                         {Shape::Linker, c - below * Vec3::UnitZ(), V, Vec3::UnitZ(), kZero}});
+}
+
+// The run's first collision comes at the first root of the offset's
+// |offset|^2 - 4 = qa t^2 + qb t + qc (the spheres touch), within the
+// contact band; and the whole run has no overlap.
+void expect_first_collision_at_root(Simulation& sim, const SimParams& p, double qa, double qb, double qc) {
+  ASSERT_EQ(sim.stats().bonds, 1);
+  ASSERT_GE(sim.bodies().group[0], 0);
+  while (sim.stats().collisions == 0 && sim.step()) {
+  }
+  ASSERT_EQ(sim.stats().collisions, 1);
+  const double t_touch = (-qb - std::sqrt(qb * qb - 4.0 * qa * qc)) / (2.0 * qa);
+  const double rate = std::abs(2.0 * qa * t_touch + qb) / 4.0;  // d|offset|/dt there
+  EXPECT_NEAR(sim.time(), t_touch, p.run.contact_tolerance / rate);
+  sim.run();
+  EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
+}
+
 TEST(RigidCluster, PairMeetingAgainThroughThePeriodicBoundaryIsNotSkipped) {
   // The cluster search's version of the free linkers' regression test
   // (test_simulation.cpp): a sphere-linker cluster bonded at t = 0 and at
@@ -454,25 +480,10 @@ TEST(RigidCluster, PairMeetingAgainThroughThePeriodicBoundaryIsNotSkipped) {
   p.geometry.boundary = Boundary::Periodic;
   p.geometry.box_length = 50.0;
   p.run.t_max = 100.0;
-  const double L = p.geometry.box_length, rc = p.bonding.capture_distance;
-  const Vec3 c(25, 25, 25);
-  const double below = 1.0 + 0.5 * rc + 0.5 * p.geometry.linker_length;  // linker centre under sphere 0
-  BodyStore b = make_bodies(p, {{Shape::Sphere, c, kZero, Vec3::UnitZ(), kZero},
-                                {Shape::Sphere, c + Vec3(1.0, 3.0, 0), Vec3(1, -0.05, 0), Vec3::UnitZ(), kZero},
-                                {Shape::Linker, c - below * Vec3::UnitZ(), kZero, Vec3::UnitZ(), kZero}});
-  Simulation sim(p, std::move(b));
-  ASSERT_EQ(sim.stats().bonds, 1);
-  ASSERT_GE(sim.bodies().group[0], 0);
-  while (sim.stats().collisions == 0 && sim.step()) {
-  }
-  ASSERT_EQ(sim.stats().collisions, 1);
-  const double vy = -0.05, qa = 1.0 + vy * vy, qb = 2.0 * (1.0 - L) + 6.0 * vy, qc = (1.0 - L) * (1.0 - L) + 5.0;
-  const double t_touch = (-qb - std::sqrt(qb * qb - 4.0 * qa * qc)) / (2.0 * qa);
-  const double delta = p.run.contact_tolerance;
-  const double rate = std::abs(2.0 * qa * t_touch + qb) / 4.0;  // d|offset|/dt there
-  EXPECT_NEAR(sim.time(), t_touch, delta / rate);
-  sim.run();
-  EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
+  const double L = p.geometry.box_length, vy = -0.05;
+  Simulation sim(p, cluster_and_sphere(p, Vec3(25, 25, 25), kZero, Vec3(1, vy, 0)));
+  const double qa = 1.0 + vy * vy, qb = 2.0 * (1.0 - L) + 6.0 * vy, qc = (1.0 - L) * (1.0 - L) + 5.0;
+  expect_first_collision_at_root(sim, p, qa, qb, qc);
 }
 
 TEST(RigidCluster, ClusterFlyingTwoTurnsWithoutAnImpulseStillCollides) {
@@ -491,27 +502,11 @@ TEST(RigidCluster, ClusterFlyingTwoTurnsWithoutAnImpulseStillCollides) {
   p.geometry.boundary = Boundary::Periodic;
   p.geometry.box_length = 20.0;
   p.run.t_max = 60.0;
-  const double L = p.geometry.box_length, rc = p.bonding.capture_distance;
-  const double w = 1.5 / (2.0 * L);
-  const Vec3 c(10, 10, 10), V(1.0, w, 0.0);
-  const double below = 1.0 + 0.5 * rc + 0.5 * p.geometry.linker_length;
-  BodyStore b = make_bodies(p, {{Shape::Sphere, c, V, Vec3::UnitZ(), kZero},
-                                {Shape::Sphere, c + Vec3(1.0, 3.0, 0), kZero, Vec3::UnitZ(), kZero},
-                                {Shape::Linker, c - below * Vec3::UnitZ(), V, Vec3::UnitZ(), kZero}});
-  Simulation sim(p, std::move(b));
-  ASSERT_EQ(sim.stats().bonds, 1);
-  ASSERT_GE(sim.bodies().group[0], 0);
-  while (sim.stats().collisions == 0 && sim.step()) {
-  }
-  ASSERT_EQ(sim.stats().collisions, 1);
+  const double L = p.geometry.box_length, w = 1.5 / (2.0 * L);
+  Simulation sim(p, cluster_and_sphere(p, Vec3(10, 10, 10), Vec3(1.0, w, 0.0), kZero));
   // First root of (1 - t + 2 L)^2 + (3 - w t)^2 = 4.
   const double x0 = 1.0 + 2.0 * L, qa = 1.0 + w * w, qb = -2.0 * x0 - 6.0 * w, qc = x0 * x0 + 5.0;
-  const double t_touch = (-qb - std::sqrt(qb * qb - 4.0 * qa * qc)) / (2.0 * qa);
-  const double delta = p.run.contact_tolerance;
-  const double rate = std::abs(2.0 * qa * t_touch + qb) / 4.0;  // d|offset|/dt there
-  EXPECT_NEAR(sim.time(), t_touch, delta / rate);
-  sim.run();
-  EXPECT_EQ(Validator::count_overlaps(sim, sim.time(), 1e-9), 0);
+  expect_first_collision_at_root(sim, p, qa, qb, qc);
 }
 
 TEST(Termination, NoBondPossibleOnceTheOnlyOpenSitesShareACluster) {
