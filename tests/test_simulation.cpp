@@ -612,6 +612,51 @@ TEST(InelasticCollapse, FrozenTimeEndsTheRunWithAnError) {
   }
 }
 
+// A linker on the rim of a tilted end face at a wall, turning about its axis,
+// restitution 0 (the mechanism of a sweep's "time stopped at t = 11.689",
+// replicate seed 105 with restitution 0 in a box of 25; docs/OUTPUT.md). The
+// wall contact's candidates include 16 samples of the face's rim; tilting
+// the axis by 2e-5 out of its plane puts sample 0 6.5e-5 rad along the rim
+// from the touching point, 6.2e-10 higher: inside the contact band (1e-9),
+// so it is a candidate, and there the spin about the axis has a normal
+// component (~2.6e-5). The turn about the rim point's radial direction
+// makes that sample approach fastest by the shape velocity (which leaves
+// the spin out), 5e-5 faster than the touching point; by the material
+// velocity it is only 2.4e-5 faster. Restitution 0 stopped the material
+// point, but by the shape velocity the sample still approached at 2.6e-5
+// (above the separation floor, 1e-6): once the TC model's elastic repeat
+// had left the material point separating at the floor, the wall fired
+// again and again at t = 0, each time found not approaching by the
+// response, which then did nothing. Predictor::wall_contact now fires only
+// a contact the response acts on.
+TEST(InelasticCollapse, LinkerRimAtAWallDoesNotFreezeTime) {
+  SimParams p;
+  p.bonding.enabled = false;
+  p.geometry.box_length = 10.0;
+  p.contact.restitution_linker = 0.0;
+  p.contact.restitution_wall = 0.0;
+  // Afterwards the turning linker keeps swinging its rim into the wall, a
+  // resting contact taken as bounces at the separation floor (~100 to t = 0.01).
+  p.run.t_max = 0.01;
+  p.run.max_events = 1'000'000;  // a guard: the frozen-time check ended the loop at 100 001
+  const Vec3 n(0, -1, 0);        // from the body to the wall y = 0
+  const Vec3 u = Vec3(2e-5, -std::cos(0.3), std::sin(0.3)).normalized();
+  const Vec3 radial = (n - n.dot(u) * u).normalized();  // of the rim point touching the wall
+  const double R = p.geometry.linker_radius, h = 0.5 * p.geometry.linker_length;
+  // The touching rim point (the support point along n) 0.75e-9 above the
+  // wall, inside the contact band, approaching at 0.01: the wall fires at t = 0.
+  Vec3 c(5, 0, 5);
+  c.y() = -(h * u + R * radial).y() + 0.75e-9;
+  BodyStore b = test::make_bodies(p, {{Shape::Linker, c, Vec3(0, -0.01, 0), u, 2.0 * u + radial}});
+  Simulation sim(p, std::move(b));
+  Validator v(sim);
+  sim.set_validator(&v);
+  EXPECT_EQ(sim.run(), Termination::TimeLimit) << sim.error();
+  EXPECT_GT(sim.stats().wall_collisions, 0);
+  EXPECT_LT(sim.stats().events, 1000);
+  EXPECT_EQ(v.report().overlaps, 0);
+}
+
 // Spheres of radius 1e-15 in the default box: rounding put a sphere's wall
 // contact at the instant its centre reached the box's face, which counted as
 // a cell exit out of the box, again and again at t = 4.7309 (a sweep found

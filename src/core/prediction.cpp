@@ -473,27 +473,60 @@ ContactFrame Predictor::contact_frame(int i, int j, double t, const ContactGeome
   return on_axis_planes(i, j, t, g, frame);
 }
 
-double Predictor::wall_contact(int i, double t, const Vec3& n, Vec3* point) const {
+bool Predictor::wall_contact(int i, double t, const Vec3& n, Vec3* point) const {
   // Where the solid touches the wall plane the support set along n may be a
   // point, a segment (a side lying parallel to the wall: both ends) or a disc
   // (an end face parallel to it: its rim). Every candidate within delta of the
   // support plane is a contact point; the one approaching fastest is used, by
   // prediction and response alike, so the impulse is always repulsive.
+  //
+  // "Approaching" is judged by the shape velocity (v + precession x r: a
+  // linker's spin about its axis moves no surface), but the wall's impulse
+  // (process_wall, fired_contact) acts on the material velocity (v + omega x
+  // r, spin included). The two agree at the exact support point, not at the
+  // other candidates: a rim sample within delta of a tilted face's support
+  // point (up to sqrt(2 delta / (R |n_perp|)) ~ 1e-4 rad along the rim)
+  // differs by ~ spin R |n_perp| times that angle. So a contact approaching
+  // by the shape velocity may separate materially; the response then gives
+  // it no impulse, or only the separation floor's top-up to
+  // min_separation_speed. When it would do nothing at all (the point
+  // already separates materially at least at the floor), the state is
+  // unchanged and the search would fire the same contact at the same
+  // instant for ever: a turning linker on its rim at a wall with
+  // restitution 0, left by the TC model's elastic repeat separating
+  // materially at 1.3e-5 and approaching by the shape velocity at 2.7e-7,
+  // stopped time ("time stopped at t = 11.689"; test
+  // InelasticCollapse.LinkerRimAtAWallDoesNotFreezeTime). Such a contact
+  // does not fire; the candidate approaching fastest materially is used
+  // instead, when the response acts on it. Every other contact fires as
+  // before, at the same point, so runs that did not stop are unchanged
+  // (bit-identical in the checks of the commit that made this change).
   const Species& s = b_.sp(i);
   const Vec3 c = body_center(b_, i, t);
+  struct Candidate {
+    Vec3 p;
+    double shape_rate, rate;  // n . velocity, shape and material (positive: towards the wall)
+  };
+  auto candidate = [&](const Vec3& p) {
+    return Candidate{p, n.dot(shape_point_velocity(b_, i, t, p, c)), n.dot(material_point_velocity(b_, i, t, p, c))};
+  };
+  // The response acts unless the point separates materially at least at the
+  // floor (floor_impulse_at_rest; approaching only, when the floor is 0). A
+  // point that separates at the floor up to a millionth of it counts as
+  // leaving: the response's top-up (the shortfall, ~1e-17 right after a
+  // floored impulse) could then be too small to change any velocity, and
+  // the same contact would fire again at the same instant.
+  auto answered = [&](const Candidate& k) { return k.rate > -(1.0 - 1e-6) * min_separation_; };
   const Vec3 p0 = support_point_of(b_, i, t, n);
-  double best_rate = n.dot(shape_point_velocity(b_, i, t, p0, c));
-  Vec3 best = p0;
+  Candidate by_shape = candidate(p0), fastest = by_shape;
   if (s.shape == Shape::Linker) {
     const Vec3 u = body_axis(b_, i, t);
     const double level = n.dot(p0);
     auto consider = [&](const Vec3& p) {
       if (level - n.dot(p) > delta_) return;  // not touching
-      const double rate = n.dot(shape_point_velocity(b_, i, t, p, c));
-      if (rate > best_rate) {
-        best_rate = rate;
-        best = p;
-      }
+      const Candidate k = candidate(p);
+      if (k.shape_rate > by_shape.shape_rate) by_shape = k;
+      if (k.rate > fastest.rate) fastest = k;
     };
     const double un = u.dot(n);
     consider(p0 - (un >= 0.0 ? 2.0 : -2.0) * s.half_length * u);  // other end of a parallel side line
@@ -504,8 +537,13 @@ double Predictor::wall_contact(int i, double t, const Vec3& n, Vec3* point) cons
       consider(face + s.radius * (std::cos(a) * e1 + std::sin(a) * e2));
     }
   }
-  if (point) *point = best;
-  return -best_rate;  // rate of change of the gap at that point (negative: approaching)
+  if (by_shape.shape_rate <= 0.0) {  // not approaching
+    if (point) *point = by_shape.p;
+    return false;
+  }
+  const Candidate& best = answered(by_shape) ? by_shape : fastest;
+  if (point) *point = best.p;
+  return answered(best);
 }
 
 
@@ -549,7 +587,7 @@ WallHit Predictor::wall(int i, double t, double limit) {
           ++ca_iterations_;
           const double g = plane.at(sc);
           if (g <= delta_) {
-            if (wall_contact(i, sc, n, nullptr) < 0.0) {
+            if (wall_contact(i, sc, n, nullptr)) {
               best = {sc, d, dir};
               break;
             }

@@ -117,8 +117,10 @@ struct WallHit {
 
 class Predictor {
  public:
-  Predictor(const BodyStore& bodies, Box box, double contact_tolerance)
-      : b_(bodies), box_(box), delta_(contact_tolerance) {}
+  // min_separation_speed: the response's separation floor
+  // (run.min_separation_speed; wall_contact).
+  Predictor(const BodyStore& bodies, Box box, double contact_tolerance, double min_separation_speed = 0.0)
+      : b_(bodies), box_(box), delta_(contact_tolerance), min_separation_(min_separation_speed) {}
 
   // Earliest contact of i and j in [t, limit); kNever if none. xi is body i's
   // centre at t (hoisted out of the caller's neighbour loop).
@@ -170,10 +172,11 @@ class Predictor {
   // Rate of change of the gap at the contact (negative: approaching).
   double approach_rate(int i, int j, double t, const ContactGeometry& g) const;
 
-  // Contact with a wall of outward normal n (from the body to the wall): the
-  // touching point that approaches fastest (optional) and the gap's rate of
-  // change there (negative: approaching).
-  double wall_contact(int i, double t, const Vec3& n, Vec3* point) const;
+  // Contact with a wall of outward normal n (from the body to the wall), of
+  // a body in the contact band: whether it fires (a touching point approaches
+  // and the wall's response will act on it), and the point the response
+  // uses (optional).
+  bool wall_contact(int i, double t, const Vec3& n, Vec3* point) const;
 
   std::uint64_t ca_iterations() const { return ca_iterations_; }
   // Distance evaluations by kind of search (all included in ca_iterations).
@@ -262,6 +265,7 @@ class Predictor {
   const BodyStore& b_;
   Box box_;
   double delta_;
+  double min_separation_;  // the separation floor (wall_contact)
   std::uint64_t ca_iterations_ = 0;
   SearchCounts counts_;
   long plane_evaluations_ = 0;

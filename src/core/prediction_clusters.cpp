@@ -198,7 +198,7 @@ WallHit Predictor::wall_generic(int i, double t, double limit) {
         const double support =
             sp.shape == Shape::Sphere ? sp.radius : geom::cylinder_support(geom::Cylinder{c, body_axis(b_, i, sc), sp.radius, sp.half_length}, n);
         const double g = (dir > 0 ? L - c[d] : c[d]) - support;
-        if (g <= delta_ && wall_contact(i, sc, n, nullptr) < 0.0) {
+        if (g <= delta_ && wall_contact(i, sc, n, nullptr)) {
           best = {sc, d, dir};
           break;
         }

@@ -76,7 +76,7 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
       bodies_(std::move(bodies)),
       box_{params.geometry.box_length, params.geometry.boundary == Boundary::Periodic},
       queue_(make_queue(params.run.queue)),
-      predictor_(bodies_, box_, params.run.contact_tolerance),
+      predictor_(bodies_, box_, params.run.contact_tolerance, params.run.min_separation_speed),
       n_spheres_(count_spheres(bodies_, params.bonding.enabled)),
       graph_(n_spheres_, bodies_.size() - n_spheres_),
       monitor_(params.run.sample_interval, static_cast<std::size_t>(params.run.mser_min_samples),
