@@ -336,14 +336,27 @@ double plane_bound_at(const Cylinder& a, const Cylinder& b, const Vec3& n) {
 // support functions (n = +-axis: face contacts; n perpendicular to an axis:
 // contacts on a lateral surface). At a kink the bound is first-order in the
 // normal's error, so a normal off by 1e-9 would otherwise "lose" 1e-9.
-double plane_bound(const Cylinder& a, const Cylinder& b, const Vec3& n) {
-  double lb = plane_bound_at(a, b, n);
+// `lb` is plane_bound_at(a, b, n), when the caller has it.
+double plane_bound(const Cylinder& a, const Cylinder& b, const Vec3& n, double lb) {
   for (const Vec3* u : {&a.axis, &b.axis}) {
     const double c = n.dot(*u);
     if (std::abs(c) > 1.0 - 1e-8) lb = std::max(lb, plane_bound_at(a, b, c > 0.0 ? *u : Vec3(-*u)));
     if (std::abs(c) < 1e-4) lb = std::max(lb, plane_bound_at(a, b, (n - c * *u).normalized()));
   }
   return lb;
+}
+double plane_bound(const Cylinder& a, const Cylinder& b, const Vec3& n) { return plane_bound(a, b, n, plane_bound_at(a, b, n)); }
+
+// The duality gap of a separated candidate (distance d > 0, normal n) as far
+// as a search needs it: the plain normal's gap when that is already at most
+// `enough` (the snaps could only make a gap that certifies smaller still, and
+// each costs two supports, i.e. two square roots), else the snapped bound's.
+// So the gap returned never decides differently from plane_bound's at the
+// threshold `enough` or any larger one.
+double search_gap(const Cylinder& a, const Cylinder& b, double d, const Vec3& n, double enough) {
+  const double plain = plane_bound_at(a, b, n);
+  if (d - plain <= enough) return d - plain;
+  return d - plane_bound(a, b, n, plain);
 }
 
 Separation to_separation(const Candidate& c) { return {c.d, c.pa, c.pb, c.n}; }
@@ -403,8 +416,9 @@ Separation cylinder_cylinder_features(const Cylinder& a, const Cylinder& b, doub
   constexpr double kCertify = 1e-12;
   Candidate best;
   // The duality gap of the best candidate, re-evaluated only when it changed
-  // (plane_bound is ~400 instructions; the final gap below reuses it when the
-  // candidate is still the one checked, which is how most searches end).
+  // (search_gap: one to three plane bounds of two supports each; the final gap
+  // below reuses it when the candidate is still the one checked, which is how
+  // most searches end).
   double checked = std::numeric_limits<double>::quiet_NaN();
   Vec3 checked_n = Vec3::Zero();
   double checked_gap = 0.0;
@@ -412,7 +426,7 @@ Separation cylinder_cylinder_features(const Cylinder& a, const Cylinder& b, doub
     if (best.d != checked) {
       checked = best.d;
       checked_n = best.n;
-      checked_gap = best.d <= 0.0 ? 0.0 : best.d - plane_bound(a, b, best.n);
+      checked_gap = best.d <= 0.0 ? 0.0 : search_gap(a, b, best.d, best.n, kCertify);
     }
     return checked_gap <= kCertify;
   };
@@ -461,7 +475,7 @@ Separation cylinder_cylinder_features(const Cylinder& a, const Cylinder& b, doub
     } else if (best.d == checked && best.n == checked_n) {
       *gap = checked_gap;
     } else {
-      *gap = best.d - plane_bound(a, b, best.n);
+      *gap = search_gap(a, b, best.d, best.n, kCertify);
     }
   }
   return to_separation(best);

@@ -49,7 +49,8 @@ Separation cylinder_cylinder(const Cylinder& a, const Cylinder& b, double tolera
 // is found by a global 1-D minimisation over the rim angle. Accuracy ~1e-12,
 // independent of `tolerance`. If `gap` is non-null it receives an a-posteriori
 // error bound: (returned distance) - (separating-plane lower bound along the
-// returned normal); 0 when the result certifies an overlap.
+// returned normal, snapped onto the supports' kinks only when the plain normal
+// leaves more than 1e-12); 0 when the result certifies an overlap.
 Separation cylinder_cylinder_features(const Cylinder& a, const Cylinder& b, double* gap = nullptr);
 
 // FCL 0.7 GJK (GST_INDEP) with distance_tolerance = tolerance; overlapping
