@@ -225,6 +225,53 @@ TEST(RestingContact, ClustersTouchingAtRestAreSearchedWithFewSteps) {
               static_cast<unsigned long long>(pred.search_counts().cluster_pair));
 }
 
+// A free linker X lying across a rigid cluster's linker Y (crossed at right
+// angles, 2e-6 apart: the chatter of Scenario 5, where a free linker rests
+// across a cluster's linker for thousands of micro-collisions) and tilting
+// about Y's axis direction through its own centre, straight above Y's axis:
+// the closest points stay at both centres, on both lateral surfaces, and the
+// gap is exactly d(t) = (2 r + g0) cos(w t) - 2 r. Between 1e3 delta and the
+// capsules' range the cluster pair search stepped only by the closest
+// points' plane, whose swept support sees X's ends tilt towards Y at
+// h w (a kink of |u.m| at u.n = 0), so each step was about d / (h w) while
+// the gap hardly changed: ~1 000 steps. The plane normal to both axes
+// (CrossedAxesPlane, as advance_pair uses at every distance) has no kink.
+// The contact it finds must still be the first time d reaches the contact
+// band (d is decreasing: 0 < d(tc) <= delta).
+TEST(RestingContact, LinkerTiltingAcrossAClusterLinkerIsSearchedWithFewSteps) {
+  SimParams p = bonding_params();
+  const Species S = make_species(Shape::Sphere, p), L = make_species(Shape::Linker, p);
+  const double bond = L.half_length + S.radius + 0.05;  // centre distance of a bonded end
+  const double g0 = 2e-6, w = 0.5, r = L.radius;
+  ASSERT_GT(L.half_length - 0.95 * S.radius, r);  // the bonded sphere is out of X's reach
+  const Vec3 y(20.0, 20.0, 20.0);
+  const Vec3 x = y + Vec3(0.0, 0.0, 2.0 * r + g0);
+  std::vector<Init> init = {
+      {Shape::Sphere, y + Vec3(bond, 0.0, 0.0), kZero, Vec3::UnitZ(), kZero},
+      {Shape::Linker, y, kZero, Vec3::UnitX(), kZero},
+      {Shape::Linker, x, kZero, Vec3::UnitY(), Vec3(w, 0.0, 0.0)},
+  };
+  BodyStore b = make_bodies(p, init);
+  b.free_all();
+  const Box box{40.0, false};
+  merge_groups(b, box, 0, 1, 0.0);  // the cluster of Y, at rest
+  const double delta = p.run.contact_tolerance;
+  auto gap = [&](double t) { return (2.0 * r + g0) * std::cos(w * t) - 2.0 * r; };
+  Predictor pred(b, box, delta);
+  for (double t : {0.0, 1e-3, 2e-3})
+    ASSERT_NEAR(pred.contact_geometry(2, 1, t).sep.distance, gap(t), 1e-12) << "t " << t;
+  const double tc = pred.pair(2, 1, 0.0, 10.0, body_center(b, 2, 0.0));
+  EXPECT_FALSE(pred.failed());
+  ASSERT_LT(tc, 10.0);
+  EXPECT_GT(gap(tc), 0.0);
+  EXPECT_LE(gap(tc), delta);
+  EXPECT_LE(pred.contact_geometry(2, 1, tc).sep.distance, delta);
+  // ~20 steps with the crossed-axes plane; ~1 000 from the swept plane alone
+  EXPECT_LT(pred.search_counts().cluster_pair, 100u);
+  std::printf("tilting linker across a cluster's: contact at %.9g after %llu distance evaluations\n", tc,
+              static_cast<unsigned long long>(pred.search_counts().cluster_pair));
+}
+
 // body_axis memoizes a free body's axis on the exact inputs of its rotation:
 // every answer equals the direct evaluation bit for bit, also when the record
 // changes (an impulse, a re-basing) and the same time is asked again.

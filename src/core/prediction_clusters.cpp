@@ -161,6 +161,19 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       const double gap0 = n.dot(ref_b - ref_a), rate = n.dot(mb.v - ma.v), q = 0.5 * (ma.accel + mb.accel);
       auto lower = [&](double tau) { return gap0 + (rate - q * tau) * tau - sa.at(tau) - sb.at(tau); };
       advance_by = std::max(advance_by, concave_reach(lower, target, advance_by, end - s, &plane_evaluations_));
+      // Two linkers side to side outside the near band (the block above,
+      // which tries this plane first, runs below 1e3 delta only): the plane
+      // normal to both axes, as in advance_pair at every distance. The fixed
+      // normal's swept supports above have a kink there (|u.m| at u.n = 0: the
+      // linkers' ends tilting), so a linker resting across a turning one
+      // (chatter) stepped by ~d per unit of the tilt rate; this plane has none.
+      // Both are certified lower bounds over their steps: the longer holds.
+      if (s + advance_by < end && b_.shape[i] == Shape::Linker && b_.shape[j] == Shape::Linker && g.certified &&
+          d >= 1e3 * delta_) {
+        const CrossedAxesPlane xp(axis_motion(g.axis_a, b_.sp(i).radius, own_motion(b_, i, s)),
+                                  axis_motion(g.axis_b, b_.sp(j).radius, own_motion(b_, j, s)), g.center_b - g.center_a);
+        if (xp.usable() && xp.value() > target) advance_by = std::max(advance_by, xp.step(target, end - s));
+      }
     }
     s += advance_by;
   }
