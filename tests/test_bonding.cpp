@@ -272,6 +272,43 @@ TEST(RestingContact, LinkerTiltingAcrossAClusterLinkerIsSearchedWithFewSteps) {
               static_cast<unsigned long long>(pred.search_counts().cluster_pair));
 }
 
+// The same with a rigid cluster's sphere resting on the free linker's side,
+// 2e-5 apart (2e4 delta): d(t) = (r_S + r_L + g0) cos(w t) - r_S - r_L
+// (the sphere's centre stays straight above X's centre). The plane that
+// follows it turns with the linker (CorotatingPlane, ranked normals), which
+// the search tried below 1e3 delta only: from 2e-5 the swept plane alone
+// took ~1 000 steps to the contact band (975).
+TEST(RestingContact, LinkerTiltingUnderAClusterSphereIsSearchedWithFewSteps) {
+  SimParams p = bonding_params();
+  const Species S = make_species(Shape::Sphere, p), L = make_species(Shape::Linker, p);
+  const double bond = L.half_length + S.radius + 0.05;
+  const double g0 = 2e-5, w = 0.5, R = S.radius + L.radius;
+  const Vec3 x(20.0, 20.0, 20.0);
+  const Vec3 c = x + Vec3(0.0, 0.0, R + g0);
+  std::vector<Init> init = {
+      {Shape::Sphere, c, kZero, Vec3::UnitZ(), kZero},
+      {Shape::Linker, c + Vec3(0.0, 0.0, bond), kZero, Vec3::UnitZ(), kZero},
+      {Shape::Linker, x, kZero, Vec3::UnitY(), Vec3(w, 0.0, 0.0)},
+  };
+  BodyStore b = make_bodies(p, init);
+  b.free_all();
+  const Box box{40.0, false};
+  merge_groups(b, box, 0, 1, 0.0);  // the sphere's cluster, at rest
+  const double delta = p.run.contact_tolerance;
+  auto gap = [&](double t) { return (R + g0) * std::cos(w * t) - R; };
+  Predictor pred(b, box, delta);
+  for (double t : {0.0, 2e-3, 5e-3})
+    ASSERT_NEAR(pred.contact_geometry(2, 0, t).sep.distance, gap(t), 1e-12) << "t " << t;
+  const double tc = pred.pair(2, 0, 0.0, 10.0, body_center(b, 2, 0.0));
+  EXPECT_FALSE(pred.failed());
+  ASSERT_LT(tc, 10.0);
+  EXPECT_GT(gap(tc), 0.0);
+  EXPECT_LE(gap(tc), delta);
+  EXPECT_LT(pred.search_counts().cluster_pair, 200u);
+  std::printf("tilting linker under a cluster's sphere: contact at %.9g after %llu distance evaluations\n", tc,
+              static_cast<unsigned long long>(pred.search_counts().cluster_pair));
+}
+
 // body_axis memoizes a free body's axis on the exact inputs of its rotation:
 // every answer equals the direct evaluation bit for bit, also when the record
 // changes (an impulse, a re-basing) and the same time is asked again.

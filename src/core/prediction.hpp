@@ -217,6 +217,11 @@ class Predictor {
   // normals, so no contact can fire from the bound.
   double capsule_far() const { return std::max(kCapsuleFar, 1e3 * delta_); }
   static constexpr double kCapsuleFar = 0.02;
+  // Below this distance the cluster pair search (advance_generic) tries the
+  // planes that follow a resting contact (crossed axes, a plane turning with
+  // a linker); 1e5 delta, never beyond the exact distances (capsule_far).
+  double plane_band() const { return std::min(kPlaneBand * delta_, capsule_far()); }
+  static constexpr double kPlaneBand = 1e5;
   // Two free spheres: their first contact at or after t, closed form (xi:
   // i's centre at t); kNever if none. In a periodic box exact up to `limit`
   // on every image (beyond it, on the minimum image of t only).

@@ -80,7 +80,13 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
     const double target = 0.5 * std::min(d, delta_);
     double proven = d;
     Vec3 normal = g.sep.normal;
-    if (!g.certified || d < 1e3 * delta_) {
+    // Below plane_band() (and whenever the distance is unproven) the
+    // planes that follow a resting contact are tried: the crossed axes and the
+    // plane turning with a linker's face or side. Up to 1e3 delta until
+    // 2026-11-26: Scenario 5's chatter (a body resting on a turning linker's
+    // side, 1e-6..1e-5 apart between micro-collisions) then crawled with the
+    // swept plane alone, whose fixed normal sees the linker's ends tilt.
+    if (!g.certified || d < plane_band()) {
       // An unproven distance may be too large: step from a separating plane.
       // Near contact the closest points' normal is ill-conditioned (off by
       // ~1e-6 at d ~ 1e-9, so its plane sits below zero); the feature normals
@@ -162,14 +168,14 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       auto lower = [&](double tau) { return gap0 + (rate - q * tau) * tau - sa.at(tau) - sb.at(tau); };
       advance_by = std::max(advance_by, concave_reach(lower, target, advance_by, end - s, &plane_evaluations_));
       // Two linkers side to side outside the near band (the block above,
-      // which tries this plane first, runs below 1e3 delta only): the plane
+      // which tries this plane first, runs below plane_band() only): the plane
       // normal to both axes, as in advance_pair at every distance. The fixed
       // normal's swept supports above have a kink there (|u.m| at u.n = 0: the
       // linkers' ends tilting), so a linker resting across a turning one
       // (chatter) stepped by ~d per unit of the tilt rate; this plane has none.
       // Both are certified lower bounds over their steps: the longer holds.
       if (s + advance_by < end && b_.shape[i] == Shape::Linker && b_.shape[j] == Shape::Linker && g.certified &&
-          d >= 1e3 * delta_) {
+          d >= plane_band()) {
         const CrossedAxesPlane xp(axis_motion(g.axis_a, b_.sp(i).radius, own_motion(b_, i, s)),
                                   axis_motion(g.axis_b, b_.sp(j).radius, own_motion(b_, j, s)), g.center_b - g.center_a);
         if (xp.usable() && xp.value() > target) advance_by = std::max(advance_by, xp.step(target, end - s));
