@@ -47,8 +47,8 @@ CorotatingPlane::State CorotatingPlane::state(double t) const {
     return st;
   }
   const Vec3 u = uy_rot_.at(tau);
-  st.c = n.dot(u);
-  st.g = n.cross(u).norm();
+  st.c = dot3(n, u);
+  st.g = cross_norm(n, u);
   const double cdot = ndot.dot(u) + n.dot(wy_.cross(u));
   st.cdot = cdot;
   const double hy = ay_ * std::abs(st.c) + ry_ * st.g;

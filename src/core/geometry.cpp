@@ -657,13 +657,6 @@ Separation capsule_capsule(const Cylinder& a, const Cylinder& b) {
   return {p.distance - a.radius - b.radius, p.point_a + a.radius * n, p.point_b - b.radius * n, n};
 }
 
-double cylinder_support(const Cylinder& c, const Vec3& n) {
-  // h |u.n| + r sqrt(1 - (u.n)^2), with sqrt(1 - (u.n)^2) = |u x n| for unit
-  // n: the cross product keeps full precision when n is nearly +-u, where
-  // 1 - (u.n)^2 cancels catastrophically (error ~1e-8 instead of ~1e-16).
-  return c.half_length * std::abs(c.axis.dot(n)) + c.radius * c.axis.cross(n).norm();
-}
-
 bool fcl_cylinders_overlap(const Cylinder& a, const Cylinder& b, double slack) {
   const double ra = a.radius - slack, la = 2.0 * (a.half_length - slack);
   const double rb = b.radius - slack, lb = 2.0 * (b.half_length - slack);

@@ -81,8 +81,15 @@ SegmentPair segment_segment(const Vec3& ca, const Vec3& ua, double ha, const Vec
 // point_a, point_b lie on the capsules' surfaces, not on the cylinders.
 Separation capsule_capsule(const Cylinder& a, const Cylinder& b);
 
-// Support value: max over points x of the solid of n.(x - center), |n| = 1.
-double cylinder_support(const Cylinder& c, const Vec3& n);
+// Support value: max over points x of the solid of n.(x - center), |n| = 1:
+// h |u.n| + r sqrt(1 - (u.n)^2), with sqrt(1 - (u.n)^2) = |u x n| for unit
+// n: the cross product keeps full precision when n is nearly +-u, where
+// 1 - (u.n)^2 cancels catastrophically (error ~1e-8 instead of ~1e-16).
+// Inline (the plane bounds of every search call it): the same bits as
+// h |u.dot(n)| + r |u.cross(n)| (vec.hpp, dot3 and cross_norm).
+inline double cylinder_support(const Cylinder& c, const Vec3& n) {
+  return c.half_length * std::abs(dot3(c.axis, n)) + c.radius * cross_norm(c.axis, n);
+}
 
 // Independent overlap oracle (FCL collide) used by the validation mode:
 // true when the solids, each shrunk by `slack` on every surface, intersect.

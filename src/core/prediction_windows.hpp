@@ -121,9 +121,9 @@ struct SweptSupport {
   }
   double at(double tau) const {
     const Vec3 m = n + tau * turn;
-    double h = m.dot(offset) + quad * tau * tau;
+    double h = dot3(m, offset) + quad * tau * tau;
     if (sphere) return h + radius;
-    return h + half_length * std::abs(axis.dot(m)) + radius * axis.cross(m).norm();
+    return h + half_length * std::abs(dot3(axis, m)) + radius * cross_norm(axis, m);
   }
 };
 
