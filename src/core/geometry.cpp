@@ -62,11 +62,14 @@ Vec3 any_perpendicular(const Vec3& u) {
 // (inside). *grad: unit outward gradient of the signed distance at p.
 // Computed in the (axial a, radial rho) half-plane of the cylinder, where
 // the solid is the rectangle [-h, h] x [0, r].
-inline double signed_point_cylinder(const Vec3& p, const Cylinder& c, Vec3* q, Vec3* grad) {
+// (Always inlined: the rim search's evaluation point then stays in
+// registers instead of being stored and reloaded across the call. Its dot
+// product and norm in the scalar forms of vec.hpp, the same bits.)
+[[gnu::always_inline]] inline double signed_point_cylinder(const Vec3& p, const Cylinder& c, Vec3* q, Vec3* grad) {
   const Vec3 d = p - c.center;
-  const double a = d.dot(c.axis);
+  const double a = dot3(d, c.axis);
   const Vec3 radial = d - a * c.axis;
-  const double rho = radial.norm();
+  const double rho = norm3(radial);
   const double sa = a >= 0.0 ? 1.0 : -1.0;
   const double da = std::abs(a) - c.half_length;  // > 0: beyond an end-face plane
   const double dr = rho - c.radius;               // > 0: outside the lateral surface
