@@ -30,7 +30,10 @@ struct AxisRotation {
     return r;
   }
 
-  Vec3 at(double dt) const {
+  // (Always inlined: an out-of-line call returns the vector through memory,
+  // and the co-rotating plane's two turns per evaluation are independent
+  // chains that the processor overlaps only when both are in view.)
+  [[gnu::always_inline]] Vec3 at(double dt) const {
     const double angle = rate * dt;
     if (angle == 0.0) return u;
     double s, co;

@@ -30,7 +30,8 @@ CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const K
   dv_norm_ = dv_.norm();
 }
 
-CorotatingPlane::State CorotatingPlane::state(double t) const {
+// (Always inlined into advance: its State returns through memory otherwise.)
+[[gnu::always_inline]] inline CorotatingPlane::State CorotatingPlane::state(double t) const {
   const double tau = t - t0_;
   const Vec3 n = nx_rot_.at(tau);
   const Vec3 dx = dx0_ + dv_ * tau;
