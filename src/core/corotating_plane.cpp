@@ -9,6 +9,12 @@ namespace ringsim {
 
 CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const Kinematics& y, const Species& sy,
                                  const Vec3& n0, const Vec3& dx, double t0, const Remainder& rem)
+    : CorotatingPlane(x, sx, y, sy, n0, dx, t0, sx.shape == Shape::Sphere ? Vec3(Vec3::UnitZ()) : axis_at(x, t0),
+                      axis_at(y, t0), rem) {}
+
+CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const Kinematics& y, const Species& sy,
+                                 const Vec3& n0, const Vec3& dx, double t0, const Vec3& ux0, const Vec3& uy0,
+                                 const Remainder& rem)
     : n0_(n0), dx0_(dx), dv_(y.v - x.v), t0_(t0), rem_(rem), bx_(sx.bounding_radius), by_(sy.bounding_radius) {
   // A sphere's rotation does not move its shape: its plane does not turn.
   wx_ = sx.shape == Shape::Linker ? x.precession : Vec3::Zero();
@@ -16,12 +22,11 @@ CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const K
   y_is_sphere_ = sy.shape == Shape::Sphere;
   ay_ = y_is_sphere_ ? 0.0 : sy.half_length;
   ry_ = sy.radius;
-  uy0_ = axis_at(y, t0);
+  uy0_ = uy0;
   if (sx.shape == Shape::Sphere) {
     hx_ = sx.radius;
   } else {
-    const Vec3 ux = axis_at(x, t0);
-    hx_ = sx.half_length * std::abs(n0.dot(ux)) + sx.radius * n0.cross(ux).norm();
+    hx_ = sx.half_length * std::abs(n0.dot(ux0)) + sx.radius * n0.cross(ux0).norm();
   }
   nx_rot_ = AxisRotation::of(n0_, wx_);
   uy_rot_ = AxisRotation::of(uy0_, wy_);

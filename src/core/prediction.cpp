@@ -297,7 +297,11 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
         const int y = x == i ? j : i;
         const Vec3 n0 = x == i ? r.normal[r.feature] : Vec3(-r.normal[r.feature]);
         const Vec3 dxy = x == i ? Vec3(g.center_b - g.center_a) : Vec3(g.center_a - g.center_b);
-        const CorotatingPlane cp(b_.kin[x], b_.sp(x), b_.kin[y], b_.sp(y), n0, dxy, s);
+        // (g's axes are body_axis at s: the same bits as axis_at; a sphere's
+        // is not read. y's only turns a linker's support.)
+        const Vec3& ux = x == i ? g.axis_a : g.axis_b;
+        const Vec3 uy = b_.shape[y] == Shape::Linker ? (y == i ? g.axis_a : g.axis_b) : axis_at(b_.kin[y], s);
+        const CorotatingPlane cp(b_.kin[x], b_.sp(x), b_.kin[y], b_.sp(y), n0, dxy, s, ux, uy);
         const double reached = cp.advance(s, end, target, stop, &plane_evaluations_, kPlaneBudget);
         // Worth it only when it beats the plain conservative step.
         if (reached - s > (d - target) / bound) {
@@ -337,8 +341,9 @@ SeparatingPlane Predictor::plane_along(int i, int j, double t, const ContactGeom
   plane.t0 = t;
   plane.offset = n.dot(g.center_b - g.center_a);
   plane.slope = n.dot(b_.kin[j].v - b_.kin[i].v);
-  plane.a = SupportTrack::of(b_.kin[i], b_.sp(i), n, t);
-  plane.b = SupportTrack::of(b_.kin[j], b_.sp(j), -n, t);
+  // (g's axes are body_axis at t, the same bits as axis_at; a sphere's is not read.)
+  plane.a = SupportTrack::of(b_.kin[i], b_.sp(i), n, t, g.axis_a);
+  plane.b = SupportTrack::of(b_.kin[j], b_.sp(j), -n, t, g.axis_b);
   return plane;
 }
 

@@ -18,12 +18,16 @@ SupportTrack SupportTrack::constant(double value) {
 
 SupportTrack SupportTrack::of(const Kinematics& k, const Species& sp, const Vec3& m, double t0) {
   if (sp.shape == Shape::Sphere) return constant(sp.radius);
+  return of(k, sp, m, t0, axis_at(k, t0));
+}
+
+SupportTrack SupportTrack::of(const Kinematics& k, const Species& sp, const Vec3& m, double t0, const Vec3& u) {
+  if (sp.shape == Shape::Sphere) return constant(sp.radius);
   SupportTrack s;
   s.constant_ = false;
   s.t0_ = t0;
   s.a_ = sp.half_length;
   s.r_ = sp.radius;
-  const Vec3 u = axis_at(k, t0);
   const double w = k.precession.norm();
   if (w == 0.0) {
     // No rotation: c is constant.

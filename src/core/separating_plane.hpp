@@ -40,6 +40,8 @@ class SupportTrack {
   static SupportTrack constant(double value);
   // Body k (its shape in species s) along unit direction m, from time t0.
   static SupportTrack of(const Kinematics& k, const Species& s, const Vec3& m, double t0);
+  // The same with a linker's axis at t0 already known (u0 = axis_at(k, t0)).
+  static SupportTrack of(const Kinematics& k, const Species& s, const Vec3& m, double t0, const Vec3& u0);
 
   double at(double t) const;
   // Upper bound (exact maximum up to rounding) of the support over [t1, t2].
