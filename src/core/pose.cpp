@@ -46,7 +46,7 @@ double point_rotation_bound(const BodyStore& b, int i, double arm) {
   return b.clusters[g].max_rate * (b.reach[i] + arm);
 }
 
-LocalMotion local_motion(const BodyStore& b, int i, double s) {
+LocalMotion cluster_local_motion(const BodyStore& b, int i, double s) {
   if (b.cgroup[i] >= 0) {
     if (b.shape[i] == Shape::Sphere) return {Vec3::Zero(), 0.0};
     const Track& k = b.track[i];

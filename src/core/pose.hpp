@@ -115,7 +115,17 @@ struct LocalMotion {
   Vec3 omega;    // angular velocity of the solid at s (world)
   double accel;  // bound on |r''| / |r| for all times
 };
-LocalMotion local_motion(const BodyStore& b, int i, double s);
+LocalMotion cluster_local_motion(const BodyStore& b, int i, double s);  // members of clusters
+inline LocalMotion local_motion(const BodyStore& b, int i, double s) {
+  // A free body inline (the searches ask for it several times per step):
+  // its precession, constant; a sphere's ball does not turn.
+  if (b.cgroup[i] < 0 && b.group[i] < 0) {
+    if (b.shape[i] == Shape::Sphere) return {Vec3::Zero(), 0.0};
+    const Vec3& w = b.kin[i].precession;
+    return {w, w.squaredNorm()};
+  }
+  return cluster_local_motion(b, i, s);
+}
 // The reference point of certified steps (LocalMotion): centre + offset,
 // moving at v within accel tau^2 / 2. Free bodies and rigid clusters: the
 // linear reference motion above (accel 0). Compliant members: their own
