@@ -69,6 +69,14 @@ double floor_impulse(double un_after, double k_nn, const ContactLaw& law);
 // no restitution impulse): the floor applies whatever the restitution
 // (separation_floor; the sphere gas's collisions use it directly).
 double floor_impulse_at_rest(double un, double k_nn, const ContactLaw& law);
+// Whether the response to a contact at normal speed un (B relative to A,
+// positive: separating) acts on it, for a predictor deciding if the contact
+// fires: it approaches, or the floor above (min_separation > 0) tops it up. A
+// point separating at the floor up to a millionth of it counts as leaving:
+// the top-up (the shortfall, ~1e-17 right after a floored impulse) could be
+// too small to change any velocity, and the same contact would fire again at
+// the same instant (Predictor::wall_contact).
+inline bool response_acts(double un, double min_separation) { return un < (1.0 - 1e-6) * min_separation; }
 
 // Kinetic energy an impulse J on B (-J on A) takes out of the pair: with u the
 // relative velocity of the contact points (B minus A), before and after,

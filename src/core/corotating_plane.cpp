@@ -10,7 +10,7 @@ namespace ringsim {
 CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const Kinematics& y, const Species& sy,
                                  const Vec3& n0, const Vec3& dx, double t0, const Remainder& rem)
     : CorotatingPlane(x, sx, y, sy, n0, dx, t0, sx.shape == Shape::Sphere ? Vec3(Vec3::UnitZ()) : axis_at(x, t0),
-                      axis_at(y, t0), rem) {}
+                      sy.shape == Shape::Sphere ? Vec3(Vec3::UnitZ()) : axis_at(y, t0), rem) {}
 
 CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const Kinematics& y, const Species& sy,
                                  const Vec3& n0, const Vec3& dx, double t0, const Vec3& ux0, const Vec3& uy0,

@@ -53,7 +53,7 @@ class CorotatingPlane {
                   const Vec3& dx, double t0, const Remainder& rem = {});
   // The same with the bodies' axes at t0 already known (ux0 = axis_at(x, t0),
   // uy0 = axis_at(y, t0), as the searches have them from the pair's
-  // geometry): two Rodrigues rotations fewer.
+  // geometry; a sphere's is not read): two Rodrigues rotations fewer.
   CorotatingPlane(const Kinematics& x, const Species& sx, const Kinematics& y, const Species& sy, const Vec3& n0,
                   const Vec3& dx, double t0, const Vec3& ux0, const Vec3& uy0, const Remainder& rem = {});
 

@@ -54,13 +54,7 @@ LocalMotion cluster_local_motion(const BodyStore& b, int i, double s) {
     const Vec3 u = track_axis(k, s);
     return {w - w.dot(u) * u, k.axis_accel};  // the spin does not move the shape
   }
-  const int g = b.group[i];
-  if (g < 0) {
-    if (b.shape[i] == Shape::Sphere) return {Vec3::Zero(), 0.0};
-    const Vec3& w = b.kin[i].precession;
-    return {w, w.squaredNorm()};
-  }
-  const Cluster& c = b.clusters[g];
+  const Cluster& c = b.clusters[b.group[i]];  // a rigid member (local_motion takes free bodies)
   // omega = I_world^-1 L = R diag(1/I) R^T L (L world and constant; R cached
   // by the caller's pose queries at s), without the elliptic functions.
   const Mat3& R = c.orientation_at(s);

@@ -115,7 +115,8 @@ struct LocalMotion {
   Vec3 omega;    // angular velocity of the solid at s (world)
   double accel;  // bound on |r''| / |r| for all times
 };
-LocalMotion cluster_local_motion(const BodyStore& b, int i, double s);  // members of clusters
+// Members of clusters only (compliant or rigid); local_motion below takes any body.
+LocalMotion cluster_local_motion(const BodyStore& b, int i, double s);
 inline LocalMotion local_motion(const BodyStore& b, int i, double s) {
   // A free body inline (the searches ask for it several times per step):
   // its precession, constant; a sphere's ball does not turn.

@@ -8,6 +8,7 @@
 #include "core/motion.hpp"
 #include "core/pose.hpp"
 #include "core/prediction_windows.hpp"
+#include "core/contact.hpp"
 #include "core/corotating_plane.hpp"
 #include "core/separating_plane.hpp"
 
@@ -298,10 +299,9 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
         const Vec3 n0 = x == i ? r.normal[r.feature] : Vec3(-r.normal[r.feature]);
         const Vec3 dxy = x == i ? Vec3(g.center_b - g.center_a) : Vec3(g.center_a - g.center_b);
         // (g's axes are body_axis at s: the same bits as axis_at; a sphere's
-        // is not read. y's only turns a linker's support.)
-        const Vec3& ux = x == i ? g.axis_a : g.axis_b;
-        const Vec3 uy = b_.shape[y] == Shape::Linker ? (y == i ? g.axis_a : g.axis_b) : axis_at(b_.kin[y], s);
-        const CorotatingPlane cp(b_.kin[x], b_.sp(x), b_.kin[y], b_.sp(y), n0, dxy, s, ux, uy);
+        // is not read.)
+        const CorotatingPlane cp(b_.kin[x], b_.sp(x), b_.kin[y], b_.sp(y), n0, dxy, s, x == i ? g.axis_a : g.axis_b,
+                                 y == i ? g.axis_a : g.axis_b);
         const double reached = cp.advance(s, end, target, stop, &plane_evaluations_, kPlaneBudget);
         // Worth it only when it beats the plain conservative step.
         if (reached - s > (d - target) / bound) {
@@ -515,13 +515,8 @@ bool Predictor::wall_contact(int i, double t, const Vec3& n, Vec3* point) const 
   auto candidate = [&](const Vec3& p) {
     return Candidate{p, n.dot(shape_point_velocity(b_, i, t, p, c)), n.dot(material_point_velocity(b_, i, t, p, c))};
   };
-  // The response acts unless the point separates materially at least at the
-  // floor (floor_impulse_at_rest; approaching only, when the floor is 0). A
-  // point that separates at the floor up to a millionth of it counts as
-  // leaving: the response's top-up (the shortfall, ~1e-17 right after a
-  // floored impulse) could then be too small to change any velocity, and
-  // the same contact would fire again at the same instant.
-  auto answered = [&](const Candidate& k) { return k.rate > -(1.0 - 1e-6) * min_separation_; };
+  // (rate is the approach speed: the normal speed of separation is -rate.)
+  auto answered = [&](const Candidate& k) { return response_acts(-k.rate, min_separation_); };
   const Vec3 p0 = support_point_of(b_, i, t, n);
   Candidate by_shape = candidate(p0), fastest = by_shape;
   if (s.shape == Shape::Linker) {
