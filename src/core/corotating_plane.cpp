@@ -90,7 +90,10 @@ double CorotatingPlane::advance(double t, double end, double target, double stop
     for (double h = h_max; h > 1e-6 * h_max; h *= 0.25) {
       double g_min = 1.0;
       bool both_branches = false;
-      const double Wh = W + (rem_.a_x + rem_.a_y) * h;  // bound on the true |c'| over the step
+      // The remainders over this step (CorotatingRemainder).
+      const double ax = std::min(rem_.a_x, rem_.a_x0 + rem_.a_x1 * h), ay = std::min(rem_.a_y, rem_.a_y0 + rem_.a_y1 * h);
+      const double cx = std::min(rem_.c_x, rem_.c_x0 + rem_.c_x1 * h), cy = std::min(rem_.c_y, rem_.c_y0 + rem_.c_y1 * h);
+      const double Wh = W + (ax + ay) * h;  // bound on the true |c'| over the step
       if (!y_is_sphere_ && Wh > 0.0) {
         g_min = st.g - Wh * h;
         if (g_min <= 0.0) continue;  // may reach Y's face-on kink: a shorter step
@@ -100,7 +103,7 @@ double CorotatingPlane::advance(double t, double end, double target, double stop
       }
       double M = wx_norm_ * wx_norm_ * (st.dx_norm + dv_norm_ * h) + 2.0 * wx_norm_ * dv_norm_;
       if (!y_is_sphere_) M += (ay_ + ry_ * (1.0 / (g_min * g_min * g_min) + 1.0 / g_min)) * W * W;
-      M += rem_.c_x + rem_.c_y + 2.0 * rem_.a_x * (st.dx_norm + dv_norm_ * h + bx_ + by_) + 2.0 * rem_.a_y * by_;
+      M += cx + cy + 2.0 * ax * (st.dx_norm + dv_norm_ * h + bx_ + by_) + 2.0 * ay * by_;
       auto first_root = [&](double s0, double rate) {
         // First root of (s0 - target) + rate h - M h^2 / 2 (s0 > target).
         const double d = s0 - target;

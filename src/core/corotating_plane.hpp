@@ -31,6 +31,8 @@
 // derivatives are bounded by a), which moves the plane's normal and each
 // support; |c'| grows to at most |W| + (a_x + a_y) h over a step.
 
+#include <limits>
+
 #include "core/axis_rotation.hpp"
 #include "core/body.hpp"
 #include "core/vec.hpp"
@@ -39,9 +41,15 @@ namespace ringsim {
 
 // Second-order departure of the bodies' true motion from the first-order one
 // handed in (zero for free bodies).
+// Over a step of length h each bound is min(all-time, at_t0 + slope h)
+// (rigid members: from |Omega'(t0)| and a bound on |Omega''|, core/pose.hpp
+// LocalMotion); at_t0 is infinite unless given, leaving the all-time bound.
 struct CorotatingRemainder {
-  double c_x = 0.0, c_y = 0.0;  // centre acceleration bounds
-  double a_x = 0.0, a_y = 0.0;  // turning-acceleration bounds
+  static constexpr double kUnset = std::numeric_limits<double>::infinity();
+  double c_x = 0.0, c_y = 0.0;  // centre acceleration bounds (all times)
+  double a_x = 0.0, a_y = 0.0;  // turning-acceleration bounds (all times)
+  double c_x0 = kUnset, c_y0 = kUnset, a_x0 = kUnset, a_y0 = kUnset;  // at t0
+  double c_x1 = 0.0, c_y1 = 0.0, a_x1 = 0.0, a_y1 = 0.0;              // slopes
 };
 
 class CorotatingPlane {

@@ -137,14 +137,14 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
         };
         // Free bodies turn exactly as the frozen rotation: no remainder.
         CorotatingPlane::Remainder rem;
-        auto remainder = [&](int b, double* c, double* a) {
+        auto remainder = [&](int b, double* c, double* a, double* c0, double* a0, double* c1, double* a1) {
           if (!in_cluster(b_, b)) return;
           const OwnMotion& m = b == i ? mi : mj;
-          *c = m.center_accel;
-          *a = b_.shape[b] == Shape::Linker ? m.turning_accel : 0.0;
+          *c = m.center_accel, *c0 = m.center_accel_s, *c1 = m.center_slope;
+          if (b_.shape[b] == Shape::Linker) *a = m.turning_accel, *a0 = m.turning_accel_s, *a1 = m.turning_slope;
         };
-        remainder(x, &rem.c_x, &rem.a_x);
-        remainder(y, &rem.c_y, &rem.a_y);
+        remainder(x, &rem.c_x, &rem.a_x, &rem.c_x0, &rem.a_x0, &rem.c_x1, &rem.a_x1);
+        remainder(y, &rem.c_y, &rem.a_y, &rem.c_y0, &rem.a_y0, &rem.c_y1, &rem.a_y1);
         const Vec3 cx = x == i ? g.center_a : g.center_b, cy = x == i ? g.center_b : g.center_a;
         const CorotatingPlane cp(first_order(x, cx), b_.sp(x), first_order(y, cy), b_.sp(y), n0, dxy, s, rem);
         const double reached = cp.advance(s, end, target, stop, &plane_evaluations_, 1);

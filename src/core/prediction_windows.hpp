@@ -235,11 +235,15 @@ inline double directed_reach(double a, double b, double plain, double c2, double
 // cluster's centre of mass at distance reach, |x''| <= accel reach; a free
 // body's centre moves on a line) and the turning's, |Omega'| + |Omega|^2 >= |u''|
 // (LocalMotion's accel).
+// A rigid member over a step of at most tau_max: LocalMotion::accel_within;
+// over a step of h <= tau_max also at_s + slope h (the turning: |Omega'(s)|
+// + W^2 and the |Omega''| bound; the centre: both times its reach). Other
+// bodies: at_s = the bound, slope 0.
 struct OwnMotion {
   Vec3 v, omega;
   double center_accel, turning_accel;
+  double center_accel_s, center_slope, turning_accel_s, turning_slope;
 };
-// A rigid member over a step of at most tau_max: LocalMotion::accel_within.
 inline OwnMotion own_motion(const BodyStore& b, int i, double s, double tau_max = kNever) {
   const RefMotion m = ref_motion(b, i, s);
   const LocalMotion l = local_motion(b, i, s);
@@ -250,7 +254,9 @@ inline OwnMotion own_motion(const BodyStore& b, int i, double s, double tau_max 
   double c = 0.0;
   if (is_compliant(b, i)) c = b.track[i].center_accel;
   else if (b.group[i] >= 0) c = accel * b.reach[i];
-  return {v, l.omega, c, accel};
+  if (!l.rigid) return {v, l.omega, c, accel, c, 0.0, accel, 0.0};
+  const double a_s = l.spin + l.rate * l.rate, reach = b.reach[i];
+  return {v, l.omega, c, accel, a_s * reach, l.jerk * reach, a_s, l.jerk};
 }
 
 // A linker's data for CrossedAxesPlane (core/crossed_axes.hpp) at s: its axis
