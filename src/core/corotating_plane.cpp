@@ -67,6 +67,14 @@ CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const K
 
 double CorotatingPlane::at(double t) const { return state(t).s; }
 
+double CorotatingRemainder::Body::departure_within(double h) const {
+  const double a = turning_within(h), plain = 2.0 * a;
+  const double wh2 = rate * rate * h * h;
+  if (!rigid || !(wh2 < 1.0)) return plain;
+  const double P = spin + jerk * h + 2.0 * rate * (spin * h + 0.5 * jerk * h * h);
+  return std::min(plain, 2.0 * P / (2.0 - wh2));
+}
+
 double CorotatingPlane::advance(double t, double end, double target, double stop, long* evaluations,
                                 int budget) const {
   const double W = wx_norm_ + wy_norm_;  // bound on |c'| and sqrt|c''|
@@ -91,9 +99,7 @@ double CorotatingPlane::advance(double t, double end, double target, double stop
       double g_min = 1.0;
       bool both_branches = false;
       // The remainders over this step (CorotatingRemainder).
-      const double ax = std::min(rem_.a_x, rem_.a_x0 + rem_.a_x1 * h), ay = std::min(rem_.a_y, rem_.a_y0 + rem_.a_y1 * h);
-      const double cx = std::min(rem_.c_x, rem_.c_x0 + rem_.c_x1 * h), cy = std::min(rem_.c_y, rem_.c_y0 + rem_.c_y1 * h);
-      const double Wh = W + (ax + ay) * h;  // bound on the true |c'| over the step
+      const double Wh = W + (rem_.x.turning_within(h) + rem_.y.turning_within(h)) * h;  // bound on the true |c'| over the step
       if (!y_is_sphere_ && Wh > 0.0) {
         g_min = st.g - Wh * h;
         if (g_min <= 0.0) continue;  // may reach Y's face-on kink: a shorter step
@@ -103,7 +109,8 @@ double CorotatingPlane::advance(double t, double end, double target, double stop
       }
       double M = wx_norm_ * wx_norm_ * (st.dx_norm + dv_norm_ * h) + 2.0 * wx_norm_ * dv_norm_;
       if (!y_is_sphere_) M += (ay_ + ry_ * (1.0 / (g_min * g_min * g_min) + 1.0 / g_min)) * W * W;
-      M += cx + cy + 2.0 * ax * (st.dx_norm + dv_norm_ * h + bx_ + by_) + 2.0 * ay * by_;
+      M += rem_.x.center_within(h) + rem_.y.center_within(h) +
+           rem_.x.departure_within(h) * (st.dx_norm + dv_norm_ * h + bx_ + by_) + rem_.y.departure_within(h) * by_;
       auto first_root = [&](double s0, double rate) {
         // First root of (s0 - target) + rate h - M h^2 / 2 (s0 > target).
         const double d = s0 - target;

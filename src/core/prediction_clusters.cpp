@@ -137,14 +137,16 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
         };
         // Free bodies turn exactly as the frozen rotation: no remainder.
         CorotatingPlane::Remainder rem;
-        auto remainder = [&](int b, double* c, double* a, double* c0, double* a0, double* c1, double* a1) {
+        auto remainder = [&](int b, CorotatingRemainder::Body* part) {
           if (!in_cluster(b_, b)) return;
           const OwnMotion& m = b == i ? mi : mj;
-          *c = m.center_accel, *c0 = m.center_accel_s, *c1 = m.center_slope;
-          if (b_.shape[b] == Shape::Linker) *a = m.turning_accel, *a0 = m.turning_accel_s, *a1 = m.turning_slope;
+          part->center = m.center_accel, part->center_t0 = m.center_accel_s, part->center_slope = m.center_slope;
+          if (b_.shape[b] != Shape::Linker) return;
+          part->turning = m.turning_accel, part->turning_t0 = m.turning_accel_s, part->turning_slope = m.turning_slope;
+          part->rigid = m.turning.rigid, part->spin = m.turning.spin, part->jerk = m.turning.jerk, part->rate = m.turning.rate;
         };
-        remainder(x, &rem.c_x, &rem.a_x, &rem.c_x0, &rem.a_x0, &rem.c_x1, &rem.a_x1);
-        remainder(y, &rem.c_y, &rem.a_y, &rem.c_y0, &rem.a_y0, &rem.c_y1, &rem.a_y1);
+        remainder(x, &rem.x);
+        remainder(y, &rem.y);
         const Vec3 cx = x == i ? g.center_a : g.center_b, cy = x == i ? g.center_b : g.center_a;
         const CorotatingPlane cp(first_order(x, cx), b_.sp(x), first_order(y, cy), b_.sp(y), n0, dxy, s, rem);
         const double reached = cp.advance(s, end, target, stop, &plane_evaluations_, 1);

@@ -243,6 +243,7 @@ struct OwnMotion {
   Vec3 v, omega;
   double center_accel, turning_accel;
   double center_accel_s, center_slope, turning_accel_s, turning_slope;
+  LocalMotion turning;  // rigid members: spin, jerk and rate (LocalMotion)
 };
 inline OwnMotion own_motion(const BodyStore& b, int i, double s, double tau_max = kNever) {
   const RefMotion m = ref_motion(b, i, s);
@@ -254,9 +255,9 @@ inline OwnMotion own_motion(const BodyStore& b, int i, double s, double tau_max 
   double c = 0.0;
   if (is_compliant(b, i)) c = b.track[i].center_accel;
   else if (b.group[i] >= 0) c = accel * b.reach[i];
-  if (!l.rigid) return {v, l.omega, c, accel, c, 0.0, accel, 0.0};
+  if (!l.rigid) return {v, l.omega, c, accel, c, 0.0, accel, 0.0, l};
   const double a_s = l.spin + l.rate * l.rate, reach = b.reach[i];
-  return {v, l.omega, c, accel, a_s * reach, l.jerk * reach, a_s, l.jerk};
+  return {v, l.omega, c, accel, a_s * reach, l.jerk * reach, a_s, l.jerk, l};
 }
 
 // A linker's data for CrossedAxesPlane (core/crossed_axes.hpp) at s: its axis
