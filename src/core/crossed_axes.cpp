@@ -6,19 +6,29 @@
 
 namespace ringsim {
 
-CrossedAxesPlane::CrossedAxesPlane(const AxisMotion& x, const AxisMotion& y, const Vec3& dx) {
-  const Vec3 w = x.u.cross(y.u);
-  rho0_ = w.norm();
+CrossedAxesPlane::CrossedAxesPlane(const AxisMotion& x, const AxisMotion& y, const Vec3& dx)
+    : CrossedAxesPlane(x.u, x.radius, y.u, y.radius, dx) {
+  set_motion(x, y, dx);
+}
+
+CrossedAxesPlane::CrossedAxesPlane(const Vec3& ux, double rx, const Vec3& uy, double ry, const Vec3& dx) {
+  w_ = ux.cross(uy);
+  rho0_ = w_.norm();
   if (!usable()) return;
-  Vec3 m = w / rho0_;
-  if (m.dot(dx) < 0.0) m = -m;  // sigma: from X towards Y
+  m_ = w_ / rho0_;
+  if (m_.dot(dx) < 0.0) m_ = -m_;  // sigma: from X towards Y
+  s0_ = m_.dot(dx) - rx - ry;
+}
+
+void CrossedAxesPlane::set_motion(const AxisMotion& x, const AxisMotion& y, const Vec3& dx) {
+  if (!usable()) return;
+  const Vec3& m = m_;
   const Vec3 dv = y.v - x.v;
   // w' = u_X' x u_Y + u_X x u_Y'; m' = (w' - m (m.w')) / |w| (the sign of m
   // carried by w' along with w).
-  const double sigma = m.dot(w) > 0.0 ? 1.0 : -1.0;
+  const double sigma = m.dot(w_) > 0.0 ? 1.0 : -1.0;
   const Vec3 dw = sigma * (x.du.cross(y.u) + x.u.cross(y.du));
   const Vec3 dm = (dw - m * m.dot(dw)) / rho0_;
-  s0_ = m.dot(dx) - x.radius - y.radius;
   rate0_ = dm.dot(dx) + m.dot(dv);
   q_rate0_ = m.dot(dw);
   d_norm_ = dx.norm();

@@ -50,6 +50,12 @@ class CrossedAxesPlane {
  public:
   // dx = x_Y - x_X in the image of the contact (the bodies' x are ignored).
   CrossedAxesPlane(const AxisMotion& x, const AxisMotion& y, const Vec3& dx);
+  // In two parts, for a caller that may not need the motion: the plane's
+  // geometry from the axes and radii alone (usable(), value(), sine()), then
+  // set_motion() with the same axes, radii and dx (the rest; step() needs it).
+  // The same bits as the one-part constructor, which is made of these two.
+  CrossedAxesPlane(const Vec3& ux, double rx, const Vec3& uy, double ry, const Vec3& dx);
+  void set_motion(const AxisMotion& x, const AxisMotion& y, const Vec3& dx);
   // Axes far enough from parallel for m to be well conditioned.
   bool usable() const { return rho0_ >= kMinSine; }
   double value() const { return s0_; }
@@ -80,6 +86,7 @@ class CrossedAxesPlane {
   double curvature_of_s(const StepBounds& k) const;
   double curvature_of_f(const StepBounds& k, double level) const;
 
+  Vec3 m_ = Vec3::Zero(), w_ = Vec3::Zero();
   double s0_ = 0.0, rate0_ = 0.0, rho0_ = 0.0, q_rate0_ = 0.0, r_sum_ = 0.0;
   double d_norm_ = 0.0, dv_norm_ = 0.0, c_ = 0.0;
   double wx0_ = 0.0, wy0_ = 0.0, ax_ = 0.0, ay_ = 0.0;
