@@ -136,10 +136,12 @@ void lateral_candidate(const Cylinder& A, const Cylinder& B, Candidate& best) {
   best = {d, ps + A.radius * n, qt - B.radius * n, n};
 }
 
-// One evaluation of the rim function f(t) and its slope.
+// One evaluation of the rim function f(t) and its slope, with the gradient
+// of the other solid's signed distance there (the points themselves are only
+// read when they improve the best candidate, so they are not kept).
 struct RimSample {
   double f, fp;
-  Vec3 p, q, g;
+  Vec3 g;
 };
 
 class RimSearch {
@@ -257,12 +259,13 @@ class RimSearch {
 
   RimSample eval(double t, double ct, double st) {
     RimSample s;
-    s.p = C_ + r_ * (ct * e1_ + st * e2_);
-    s.f = signed_point_cylinder(s.p, *other_, &s.q, &s.g);
+    const Vec3 p = C_ + r_ * (ct * e1_ + st * e2_);
+    Vec3 q;
+    s.f = signed_point_cylinder(p, *other_, &q, &s.g);
     s.fp = r_ * s.g.dot(ct * e2_ - st * e1_);
     if (s.f < best_->d) {
-      if (rim_on_b_) *best_ = {s.f, s.q, s.p, s.g};
-      else *best_ = {s.f, s.p, s.q, -s.g};
+      if (rim_on_b_) *best_ = {s.f, q, p, s.g};
+      else *best_ = {s.f, p, q, -s.g};
     }
     return s;
   }
