@@ -93,9 +93,11 @@ double CorotatingPlane::advance(double t, double end, double target, double stop
     }
     // The bound M grows with the interval (through g_min and |dx|), so try
     // intervals h_max, h_max/4, ... and keep the longest certified step
-    // min(h, first root of the quadratic bound on [t, t + h]).
+    // min(h, first root of the quadratic bound on [t, t + h]). (A candidate
+    // is at most its h: once the step kept reaches h, no shorter interval
+    // can give a longer one.)
     double step = 0.0;
-    for (double h = h_max; h > 1e-6 * h_max; h *= 0.25) {
+    for (double h = h_max; h > 1e-6 * h_max && h > step; h *= 0.25) {
       double g_min = 1.0;
       bool both_branches = false;
       // The remainders over this step (CorotatingRemainder).
