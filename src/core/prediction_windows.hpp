@@ -105,6 +105,7 @@ struct SweptSupport {
   Vec3 n, turn, offset, axis;
   double radius = 0.0, half_length = 0.0, quad = 0.0, cubic = 0.0;
   bool sphere = true;
+  bool at_reference = false;  // offset == 0 (the centre is the reference point)
 
   SweptSupport(const BodyStore& b, int i, double s, const Vec3& dir, const Vec3& center, const Vec3& ref,
                double tau_max = kNever)
@@ -118,6 +119,7 @@ struct SweptSupport {
     n = dir;
     turn = dir.cross(lm.omega);
     offset = center - ref;
+    at_reference = offset == Vec3::Zero();
     sphere = sp.shape == Shape::Sphere;
     radius = sp.radius;
     half_length = sp.half_length;
@@ -134,9 +136,12 @@ struct SweptSupport {
     const double c2 = lm.directed_c2(rho, std::max(lead, -rho)), c3 = lm.directed_c3(rho);
     if (c2 + c3 * std::min(tau_max, 1.0 / lm.rate) < quad) quad = c2, cubic = c3;
   }
+  // (A free body's centre is its reference point: offset is exactly zero,
+  // and its dot product, +-0, adds nothing to quad tau^2 >= +0.)
   double at(double tau) const {
     const Vec3 m = n + tau * turn;
-    double h = dot3(m, offset) + (quad + cubic * tau) * tau * tau;
+    double h = (quad + cubic * tau) * tau * tau;
+    if (!at_reference) h = dot3(m, offset) + h;
     if (sphere) return h + radius;
     return h + half_length * std::abs(dot3(axis, m)) + radius * cross_norm(axis, m);
   }
