@@ -59,7 +59,7 @@ double SupportTrack::h_at_theta(double th) const { return h_at(th, c_of(th)); }
 
 double SupportTrack::h_at(double th, double c) const {
   double s, c_th;
-  sin_cos(th, &s, &c_th);
+  plain_.get(th, &s, &c_th);
   const double sine = (cross0_ + cross_cos_ * c_th + cross_sin_ * s).norm();
   return a_ * std::abs(c) + r_ * std::min(1.0, sine);
 }
@@ -140,8 +140,8 @@ double SupportTrack::max_rate_over(double t1, double t2) const {
   // c = alpha + rho cos(th - phi) and dc = rho cos(th - (phi - pi/2)) =
   // -rho sin(th - phi): one sine and cosine per end serve both.
   double sin1, cos1, sin2, cos2;
-  sin_cos(th1 - phi_, &sin1, &cos1);
-  sin_cos(th2 - phi_, &sin2, &cos2);
+  shifted_.get(th1 - phi_, &sin1, &cos1);
+  shifted_.get(th2 - phi_, &sin2, &cos2);
   const Interval c = sinusoid_range(alpha_ + rho_ * cos1, alpha_ + rho_ * cos2, alpha_, rho_, phi_, th1, th2);
   const Interval dc = sinusoid_range(-rho_ * sin1, -rho_ * sin2, 0.0, rho_, phi_ - 0.5 * M_PI, th1, th2);
   const double c2max = std::max(c.lo * c.lo, c.hi * c.hi);

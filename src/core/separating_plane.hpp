@@ -26,6 +26,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include "core/body.hpp"
 #include "core/fast_trig.hpp"
@@ -56,9 +58,32 @@ class SupportTrack {
   double theta(double t) const { return rate_ * (t - t0_); }
   double c_of(double th) const {
     double s, c;
-    sin_cos(th - phi_, &s, &c);
+    shifted_.get(th - phi_, &s, &c);
     return alpha_ + rho_ * c;
   }
+  // The last two sines and cosines computed, by argument bits: one plane
+  // step asks for the same angles several times (the value, the rate and the
+  // interval bounds at its start; each trial's end in two bounds), and
+  // sin_cos is a pure function, so the memo returns the same bits.
+  struct SinCosMemo {
+    std::uint64_t key[2] = {0x7ff8dead0000beefULL, 0x7ff8dead0000beefULL};  // NaNs no argument here has
+    double s[2] = {0.0, 0.0}, c[2] = {0.0, 0.0};
+    int next = 0;  // the slot to overwrite
+    void get(double x, double* sx, double* cx) {
+      std::uint64_t bits;
+      std::memcpy(&bits, &x, sizeof bits);
+      int k = bits == key[0] ? 0 : (bits == key[1] ? 1 : -1);
+      if (k < 0) {
+        k = next;
+        next ^= 1;
+        sin_cos(x, &s[k], &c[k]);
+        key[k] = bits;
+      }
+      *sx = s[k];
+      *cx = c[k];
+    }
+  };
+  mutable SinCosMemo shifted_, plain_;  // sin_cos(th - phi), sin_cos(th)
   double h_at_theta(double th) const;
   double h_at(double th, double c) const;  // h_at_theta with c = c_of(th) given
   double h_of_c(double c) const;
