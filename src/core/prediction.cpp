@@ -127,12 +127,31 @@ void Predictor::fail(const char* what, int i, int j, double t, double reached, d
   }
 }
 
+Predictor::WindowSelf Predictor::window_self(int i, const Vec3& xi) const {
+  return {xi, reference_velocity(b_, i), reference_radius(b_, i)};
+}
+
 double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
-  // xi: i's reference point at t (its centre, or its cluster's centre of mass).
-  // In a periodic box another image may come into range first (ImageReturn).
-  const Vec3 dx = box_.min_image(reference_center(b_, j, t) - xi);
-  const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
-  const double R = reference_radius(b_, i) + reference_radius(b_, j) + delta_;
+  return window_enter(window_self(i, xi), j, t);
+}
+
+double Predictor::window_enter(const WindowSelf& self, int j, double t) const {
+  // self.x: i's reference point at t (its centre, or its cluster's centre of
+  // mass). In a periodic box another image may come into range first
+  // (ImageReturn). (A free j's reference point, velocity and radius in line:
+  // pose.hpp's reference_* take that branch, radius + offset 0.)
+  Vec3 dx, dv;
+  double R;
+  if (b_.cgroup[j] < 0 && b_.group[j] < 0) {
+    const Kinematics& k = b_.kin[j];
+    dx = box_.min_image(position_at(k, t) - self.x);
+    dv = k.v - self.v;
+    R = self.radius + b_.sp(j).bounding_radius + delta_;
+  } else {
+    dx = box_.min_image(reference_center(b_, j, t) - self.x);
+    dv = reference_velocity(b_, j) - self.v;
+    R = self.radius + reference_radius(b_, j) + delta_;
+  }
   double enter, leave;
   const bool open = sphere_window(dx, dv, R, &enter, &leave);
   if (!box_.periodic || R <= image_safe_radius_) return open ? t + enter : kNever;

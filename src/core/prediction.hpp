@@ -128,6 +128,14 @@ class Predictor {
   // When the bounding spheres of i and j (plus delta) first overlap, from t;
   // kNever if they never do. No contact can happen before it.
   double window_enter(int i, int j, double t, const Vec3& xi) const;
+  // The same with i's part (reference point at t, its velocity and radius)
+  // computed once for a neighbour loop (window_self).
+  struct WindowSelf {
+    Vec3 x, v;
+    double radius;
+  };
+  WindowSelf window_self(int i, const Vec3& xi) const;
+  double window_enter(const WindowSelf& self, int j, double t) const;
   // Windows of radius at most this need no look at other periodic images in
   // window_enter: the caller's limits keep the relative motion in a search
   // shorter than the way to another image (Simulation, with the partner

@@ -405,6 +405,7 @@ void Simulation::predict(int i, double t) {
   const bool sphere_i = bodies_.shape[i] == Shape::Sphere;
   const bool bonding = params_.bonding.enabled;
   capture_partners_.clear();
+  const Predictor::WindowSelf window_self = predictor_.window_self(i, xi);
   grid_.for_each_near(grid_.cell_of_body(i), [&](int j) {
     if (j == i) return;
     if (gi >= 0 && bodies_.group[j] == gi) return;  // one rigid body: no relative motion
@@ -421,7 +422,7 @@ void Simulation::predict(int i, double t) {
       consider(j, ej.time);
       return;
     }
-    const double enter = predictor_.window_enter(i, j, t, xi);
+    const double enter = predictor_.window_enter(window_self, j, t);
     if (enter < pair_limit(j)) candidates_.push_back({enter, j});
   });
   std::sort(candidates_.begin(), candidates_.end());
