@@ -28,6 +28,7 @@ CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const K
   } else {
     hx_ = sx.half_length * std::abs(n0.dot(ux0)) + sx.radius * n0.cross(ux0).norm();
   }
+  has_rem_ = !(rem.x.center == 0.0 && rem.y.center == 0.0 && rem.x.turning == 0.0 && rem.y.turning == 0.0);
   nx_rot_ = AxisRotation::of(n0_, wx_);
   uy_rot_ = AxisRotation::of(uy0_, wy_);
   wx_norm_ = wx_.norm();
@@ -111,8 +112,10 @@ double CorotatingPlane::advance(double t, double end, double target, double stop
       }
       double M = wx_norm_ * wx_norm_ * (st.dx_norm + dv_norm_ * h) + 2.0 * wx_norm_ * dv_norm_;
       if (!y_is_sphere_) M += (ay_ + ry_ * (1.0 / (g_min * g_min * g_min) + 1.0 / g_min)) * W * W;
-      M += rem_.x.center_within(h) + rem_.y.center_within(h) +
-           rem_.x.departure_within(h) * (st.dx_norm + dv_norm_ * h + bx_ + by_) + rem_.y.departure_within(h) * by_;
+      // (Free bodies: every remainder bound is +0, the sum +0, and M + 0 = M.)
+      if (has_rem_)
+        M += rem_.x.center_within(h) + rem_.y.center_within(h) +
+             rem_.x.departure_within(h) * (st.dx_norm + dv_norm_ * h + bx_ + by_) + rem_.y.departure_within(h) * by_;
       auto first_root = [&](double s0, double rate) {
         // First root of (s0 - target) + rate h - M h^2 / 2 (s0 > target).
         const double d = s0 - target;

@@ -104,6 +104,7 @@ class CorotatingPlane {
   bool y_is_sphere_;
   double wx_norm_, wy_norm_, dv_norm_;
   Remainder rem_;
+  bool has_rem_;            // some remainder bound is not zero
   double bx_, by_;          // bounding radii
 };
 
