@@ -28,6 +28,8 @@ SupportTrack SupportTrack::of(const Kinematics& k, const Species& sp, const Vec3
   s.t0_ = t0;
   s.a_ = sp.half_length;
   s.r_ = sp.radius;
+  s.cs_ = s.a_ / std::hypot(s.a_, s.r_);
+  s.h_cs_ = s.h_of_c(s.cs_);
   const double w = k.precession.norm();
   if (w == 0.0) {
     // No rotation: c is constant.
@@ -94,9 +96,11 @@ double SupportTrack::max_over(double t1, double t2) const {
       best = std::max(best, h_at_theta(th_min));
     }
   }
-  const double cs = a_ / std::hypot(a_, r_);
-  if (lo <= cs && cs <= hi) best = std::max(best, h_of_c(cs));
-  if (lo <= -cs && -cs <= hi) best = std::max(best, h_of_c(-cs));
+  // (cs and H there, h_of_c(cs) = h_of_c(-cs) bit for bit, depend on the
+  // shape only: computed once in of().)
+  const double cs = cs_;
+  if (lo <= cs && cs <= hi) best = std::max(best, h_cs_);
+  if (lo <= -cs && -cs <= hi) best = std::max(best, h_cs_);
   // Guard the rounding of the evaluations above (values are O(a + r)).
   return best + 8.0 * 2.2e-16 * (a_ + r_);
 }

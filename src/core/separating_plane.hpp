@@ -91,6 +91,7 @@ class SupportTrack {
   double value_ = 0.0;  // constant case
   double t0_ = 0.0, rate_ = 0.0, alpha_ = 0.0, rho_ = 0.0, phi_ = 0.0;
   double a_ = 0.0, r_ = 0.0;
+  double cs_ = 0.0, h_cs_ = 0.0;  // H's maximiser a / hypot(a, r) in c, and H there
   Vec3 cross0_, cross_cos_, cross_sin_;  // n x u(th) = cross0 + cross_cos cos(th) + cross_sin sin(th)
 };
 
