@@ -284,8 +284,19 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
       const Vec3& n = g.sep.normal;
       const SweptSupport sa(b_, i, s, n, g.center_a, g.center_a, g.axis_a), sb(b_, j, s, -n, g.center_b, g.center_b, g.axis_b);
       const double gap0 = n.dot(g.center_b - g.center_a), rate = n.dot(dv);
-      auto lower = [&](double tau) { return gap0 + rate * tau - sa.at(tau) - sb.at(tau); };
-      swept_to = s + concave_reach(lower, target, std::max((d - target) / bound, min_step(bound)), end - s, &plane_evaluations_);
+      const detail::SweptSupportPair both(sa, sb);
+      const double tau0 = std::max((d - target) / bound, min_step(bound));
+      if (both.usable()) {
+        auto lower = [&](double tau) {
+          double ha, hb;
+          both.at(tau, &ha, &hb);
+          return gap0 + rate * tau - ha - hb;
+        };
+        swept_to = s + concave_reach(lower, target, tau0, end - s, &plane_evaluations_);
+      } else {
+        auto lower = [&](double tau) { return gap0 + rate * tau - sa.at(tau) - sb.at(tau); };
+        swept_to = s + concave_reach(lower, target, tau0, end - s, &plane_evaluations_);
+      }
     }
     // Proven free to the end of the search (the usual way a search ends
     // without a contact): the tighter planes below could only prove more of

@@ -7,6 +7,9 @@
 
 #include <algorithm>
 #include <cmath>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "core/crossed_axes.hpp"
 #include "core/pose.hpp"
@@ -145,6 +148,60 @@ struct SweptSupport {
     if (sphere) return h + radius;
     return h + half_length * std::abs(dot3(axis, m)) + radius * cross_norm(axis, m);
   }
+};
+
+// Two linkers' swept supports whose centres are their reference points (free
+// linkers: at_reference, not spheres), evaluated side by side in the two lanes
+// of SSE2 registers: each lane does SweptSupport::at's operations in its
+// order (no fused multiply-add in this build: -O2 for x86-64, no -mfma), so
+// the same bits, with one square root instruction for both. usable() false:
+// the caller evaluates them one by one.
+struct SweptSupportPair {
+  explicit SweptSupportPair(const SweptSupport& a, const SweptSupport& b)
+      : ok(!a.sphere && !b.sphere && a.at_reference && b.at_reference) {
+#if defined(__SSE2__)
+    if (!ok) return;
+    for (int c = 0; c < 3; ++c) {
+      n[c] = _mm_set_pd(b.n[c], a.n[c]);
+      turn[c] = _mm_set_pd(b.turn[c], a.turn[c]);
+      axis[c] = _mm_set_pd(b.axis[c], a.axis[c]);
+    }
+    quad = _mm_set_pd(b.quad, a.quad);
+    half_length = _mm_set_pd(b.half_length, a.half_length);
+    radius = _mm_set_pd(b.radius, a.radius);
+#else
+    ok = false;
+#endif
+  }
+  bool usable() const { return ok; }
+#if defined(__SSE2__)
+  // a.at(tau) + ... : *ha = a.at(tau), *hb = b.at(tau).
+  [[gnu::always_inline]] void at(double tau, double* ha, double* hb) const {
+    const __m128d t = _mm_set1_pd(tau);
+    // m = n + tau turn
+    const __m128d m0 = _mm_add_pd(n[0], _mm_mul_pd(t, turn[0]));
+    const __m128d m1 = _mm_add_pd(n[1], _mm_mul_pd(t, turn[1]));
+    const __m128d m2 = _mm_add_pd(n[2], _mm_mul_pd(t, turn[2]));
+    // h = quad tau tau
+    const __m128d h = _mm_mul_pd(_mm_mul_pd(quad, t), t);
+    // dot3(axis, m) = (a0 m0 + a1 m1) + a2 m2
+    const __m128d d = _mm_add_pd(_mm_add_pd(_mm_mul_pd(axis[0], m0), _mm_mul_pd(axis[1], m1)), _mm_mul_pd(axis[2], m2));
+    const __m128d abs_d = _mm_andnot_pd(_mm_set1_pd(-0.0), d);
+    // cross_norm(axis, m)
+    const __m128d x = _mm_sub_pd(_mm_mul_pd(axis[1], m2), _mm_mul_pd(axis[2], m1));
+    const __m128d y = _mm_sub_pd(_mm_mul_pd(axis[2], m0), _mm_mul_pd(axis[0], m2));
+    const __m128d z = _mm_sub_pd(_mm_mul_pd(axis[0], m1), _mm_mul_pd(axis[1], m0));
+    const __m128d cn = _mm_sqrt_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(x, x), _mm_mul_pd(y, y)), _mm_mul_pd(z, z)));
+    // h + half_length |d| + radius cn
+    const __m128d r = _mm_add_pd(_mm_add_pd(h, _mm_mul_pd(half_length, abs_d)), _mm_mul_pd(radius, cn));
+    *ha = _mm_cvtsd_f64(r);
+    *hb = _mm_cvtsd_f64(_mm_unpackhi_pd(r, r));
+  }
+  __m128d n[3], turn[3], axis[3], quad, half_length, radius;
+#else
+  void at(double, double*, double*) const {}
+#endif
+  bool ok;
 };
 
 // For a concave f: a tau in [0, tau_max] with f >= level on all of [0, tau]
