@@ -158,7 +158,7 @@ struct SweptSupport {
 // the caller evaluates them one by one.
 struct SweptSupportPair {
   explicit SweptSupportPair(const SweptSupport& a, const SweptSupport& b)
-      : ok(!a.sphere && !b.sphere && a.at_reference && b.at_reference) {
+      : ok(!a.sphere && !b.sphere && a.at_reference && b.at_reference && a.cubic == 0.0 && b.cubic == 0.0) {
 #if defined(__SSE2__)
     if (!ok) return;
     for (int c = 0; c < 3; ++c) {
