@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
 
 #include "body_builder.hpp"
@@ -15,6 +16,7 @@
 #include "core/pose.hpp"
 #include "core/prediction.hpp"
 #include "core/prediction_windows.hpp"
+#include "core/separating_plane.hpp"
 #include "core/scene.hpp"
 #include "core/simulation.hpp"
 #include "core/validation.hpp"
@@ -481,6 +483,44 @@ TEST(RestingContact, LinkerTiltingUnderAClusterSphereIsSearchedWithFewSteps) {
   EXPECT_LT(pred.search_counts().cluster_pair, 200u);
   std::printf("tilting linker under a cluster's sphere: contact at %.9g after %llu distance evaluations\n", tc,
               static_cast<unsigned long long>(pred.search_counts().cluster_pair));
+}
+
+// The free-pair search's two-lane swept supports (prediction_windows.hpp,
+// SweptSupportPair) and a support track's sine/cosine memo
+// (separating_plane.hpp) give the one-by-one, memo-free values bit for bit.
+TEST(Pose, TwoLaneSweptSupportsAndTrackMemoMatchScalar) {
+  SimParams p = bonding_params();
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  BodyStore b = make_bodies(p, {{Shape::Linker, Vec3(5, 5, 5), kZero, Vec3(u(rng), u(rng), 1.0), Vec3(0.3, -0.2, 0.9)},
+                                {Shape::Linker, Vec3(7, 5, 5), kZero, Vec3(1.0, u(rng), 0.0), Vec3(-0.7, 0.1, 0.2)}});
+  b.free_all();
+  auto bits_equal = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+  for (int k = 0; k < 500; ++k) {
+    const double s = 3.0 * std::abs(u(rng));
+    const Vec3 n = Vec3(u(rng), u(rng), u(rng)).normalized();
+    const Vec3 ca = body_center(b, 0, s), cb = body_center(b, 1, s);
+    const detail::SweptSupport sa(b, 0, s, n, ca, ca, body_axis(b, 0, s)), sb(b, 1, s, -n, cb, cb, body_axis(b, 1, s));
+    const detail::SweptSupportPair both(sa, sb);
+    ASSERT_TRUE(both.usable());
+    for (int m = 0; m < 8; ++m) {
+      const double tau = m == 0 ? 0.0 : std::ldexp(std::abs(u(rng)), -2 * m);
+      double ha, hb;
+      both.at(tau, &ha, &hb);
+      ASSERT_TRUE(bits_equal(ha, sa.at(tau)) && bits_equal(hb, sb.at(tau))) << k << " " << m;
+    }
+    // One track asked many times (its memo) against a fresh track per query.
+    const SupportTrack kept = SupportTrack::of(b.kin[0], b.sp(0), n, s);
+    for (int m = 0; m < 12; ++m) {
+      const double t1 = s + (m % 3 == 0 ? 0.0 : std::abs(u(rng))), t2 = t1 + (m % 4 == 0 ? 0.0 : std::abs(u(rng)));
+      const SupportTrack fresh = SupportTrack::of(b.kin[0], b.sp(0), n, s);
+      ASSERT_TRUE(bits_equal(kept.at(t1), fresh.at(t1))) << k << " " << m;
+      const SupportTrack fresh2 = SupportTrack::of(b.kin[0], b.sp(0), n, s);
+      ASSERT_TRUE(bits_equal(kept.max_over(t1, t2), fresh2.max_over(t1, t2))) << k << " " << m;
+      const SupportTrack fresh3 = SupportTrack::of(b.kin[0], b.sp(0), n, s);
+      ASSERT_TRUE(bits_equal(kept.max_rate_over(t1, t2), fresh3.max_rate_over(t1, t2))) << k << " " << m;
+    }
+  }
 }
 
 // body_axis memoizes a free body's axis on the exact inputs of its rotation:
