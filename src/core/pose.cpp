@@ -64,9 +64,7 @@ LocalMotion cluster_local_motion(const BodyStore& b, int i, double s) {
   // Mechanics, section 36), I_1 w_1' = (I_2 - I_3) w_2 w_3 and cyclic, with
   // |w_j w_k| <= |omega|^2 / 2; the world-frame derivative has the same norm
   // (d/dt (R w) = R w' since R' w = omega x omega = 0).
-  const Vec3& I = c.moments;
-  const double k1 = (I[1] - I[2]) / I[0], k2 = (I[2] - I[0]) / I[1], k3 = (I[0] - I[1]) / I[2];
-  const double ks = std::sqrt(k1 * k1 + k2 * k2 + k3 * k3);
+  const double k1 = c.euler_k[0], k2 = c.euler_k[1], k3 = c.euler_k[2], ks = c.euler_k_norm;
   const double W = c.max_rate, W2 = W * W;
   LocalMotion m{R * wb, W2 * (1.0 + 0.5 * ks)};
   m.rigid = true;
@@ -80,8 +78,7 @@ LocalMotion cluster_local_motion(const BodyStore& b, int i, double s) {
   // and w_1'' = k1 (w2' w3 + w2 w3') = k1 w1 (k2 w3^2 + k3 w2^2) and cyclic,
   // |w_1''| <= |k1| kmax |w1| (W^2 - w1^2) <= |k1| kmax 2 W^3 / (3 sqrt 3)
   // (|k_i| <= 1: the triangle inequality of principal moments).
-  const double kmax = std::max({std::abs(k1), std::abs(k2), std::abs(k3)});
-  m.jerk = W * m.spin_max + ks * kmax * (2.0 / (3.0 * std::sqrt(3.0))) * W2 * W;
+  m.jerk = W * m.spin_max + ks * c.euler_k_max * (2.0 / (3.0 * std::sqrt(3.0))) * W2 * W;
   return m;
 }
 
