@@ -137,13 +137,21 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
         };
         // Free bodies turn exactly as the frozen rotation: no remainder.
         CorotatingPlane::Remainder rem;
+        // (Rigid members: also the bounds per step from the state at s,
+        // |Omega'(s)| + W^2 growing at the |Omega''| bound.)
         auto remainder = [&](int b, CorotatingRemainder::Body* part) {
           if (!in_cluster(b_, b)) return;
           const OwnMotion& m = b == i ? mi : mj;
-          part->center = m.center_accel, part->center_t0 = m.center_accel_s, part->center_slope = m.center_slope;
-          if (b_.shape[b] != Shape::Linker) return;
-          part->turning = m.turning_accel, part->turning_t0 = m.turning_accel_s, part->turning_slope = m.turning_slope;
-          part->rigid = m.turning.rigid, part->spin = m.turning.spin, part->jerk = m.turning.jerk, part->rate = m.turning.rate;
+          const LocalMotion& l = m.local;
+          const bool linker = b_.shape[b] == Shape::Linker;
+          part->center = m.center_accel;
+          if (linker) part->turning = m.turning_accel;
+          if (!l.rigid) return;
+          const double at_s = l.spin + l.rate * l.rate;
+          part->center_t0 = at_s * m.reach, part->center_slope = l.jerk * m.reach;
+          if (!linker) return;
+          part->turning_t0 = at_s, part->turning_slope = l.jerk;
+          part->rigid = true, part->spin = l.spin, part->jerk = l.jerk, part->rate = l.rate;
         };
         remainder(x, &rem.x);
         remainder(y, &rem.y);

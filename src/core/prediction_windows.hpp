@@ -283,7 +283,6 @@ inline PointMotion point_motion(const BodyStore& b, int i, double s, const Vec3&
 // bounded by c3 cap tau^2 up to cap = 4x the plain reach.
 inline double directed_reach(double a, double b, double plain, double c2, double c3, double level) {
   const double tp = quadratic_reach(a, b, plain, level);
-  if (c3 == 0.0 && c2 >= plain) return tp;
   const double cap = 4.0 * tp;
   const double c = c2 + c3 * cap;
   if (!(cap < kNever) || !(c < plain)) return tp;
@@ -297,15 +296,13 @@ inline double directed_reach(double a, double b, double plain, double c2, double
 // cluster's centre of mass at distance reach, |x''| <= accel reach; a free
 // body's centre moves on a line) and the turning's, |Omega'| + |Omega|^2 >= |u''|
 // (LocalMotion's accel).
-// A rigid member over a step of at most tau_max: LocalMotion::accel_within;
-// over a step of h <= tau_max also at_s + slope h (the turning: |Omega'(s)|
-// + W^2 and the |Omega''| bound; the centre: both times its reach). Other
-// bodies: at_s = the bound, slope 0.
+// A rigid member over a step of at most tau_max: LocalMotion::accel_within
+// (`local` keeps its data for bounds per step, CorotatingRemainder).
 struct OwnMotion {
   Vec3 v, omega;
   double center_accel, turning_accel;
-  double center_accel_s, center_slope, turning_accel_s, turning_slope;
-  LocalMotion turning;  // rigid members: spin, jerk and rate (LocalMotion)
+  LocalMotion local;
+  double reach;  // a rigid member's distance from its cluster's centre of mass
 };
 inline OwnMotion own_motion(const BodyStore& b, int i, double s, double tau_max = kNever) {
   const RefMotion m = ref_motion(b, i, s);
@@ -317,9 +314,7 @@ inline OwnMotion own_motion(const BodyStore& b, int i, double s, double tau_max 
   double c = 0.0;
   if (is_compliant(b, i)) c = b.track[i].center_accel;
   else if (b.group[i] >= 0) c = accel * b.reach[i];
-  if (!l.rigid) return {v, l.omega, c, accel, c, 0.0, accel, 0.0, l};
-  const double a_s = l.spin + l.rate * l.rate, reach = b.reach[i];
-  return {v, l.omega, c, accel, a_s * reach, l.jerk * reach, a_s, l.jerk, l};
+  return {v, l.omega, c, accel, l, l.rigid ? b.reach[i] : 0.0};
 }
 
 // A linker's data for CrossedAxesPlane (core/crossed_axes.hpp) at s: its axis
