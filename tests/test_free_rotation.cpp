@@ -283,7 +283,7 @@ TEST(FreeRotation, RestartChainStaysOrthonormal) {
   // An asymmetric body and a sphere-linker pair (nearly symmetric top).
   for (const Vec3& moments : {Vec3(3.1, 5.7, 7.9), Vec3(9.6342174710140505, 98.646009674372891, 98.646009674383379)}) {
     ringsim::Cluster c;
-    c.set_moments(moments);
+    c.moments = moments;
     c.mass = 4.0;
     c.x = Vec3(25, 25, 25);
     c.rot = FreeRotation(moments, Mat3::Identity(), Vec3(1.3, -0.4, 2.2));

@@ -17,7 +17,6 @@
 //  - spin: lambda = (L.axis)(1/I_axial - 1/I_perp), constant; the angular
 //    velocity is omega(t) = Omega + lambda * axis(t). Spheres: 0.
 
-#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -86,16 +85,6 @@ struct Cluster {
   Vec3 v = Vec3::Zero();
   FreeRotation rot;
   Vec3 moments = Vec3::Ones();  // principal moments of inertia
-  // Euler's equations' coefficients k = ((I2 - I3)/I1, (I3 - I1)/I2,
-  // (I1 - I2)/I3), |k| and max |k_i| (core/pose.cpp cluster_local_motion).
-  Vec3 euler_k = Vec3::Zero();
-  double euler_k_norm = 0.0, euler_k_max = 0.0;
-  void set_moments(const Vec3& I) {
-    moments = I;
-    euler_k = Vec3((I[1] - I[2]) / I[0], (I[2] - I[0]) / I[1], (I[0] - I[1]) / I[2]);
-    euler_k_norm = std::sqrt(euler_k[0] * euler_k[0] + euler_k[1] * euler_k[1] + euler_k[2] * euler_k[2]);
-    euler_k_max = euler_k.cwiseAbs().maxCoeff();
-  }
   double mass = 0.0;
   double max_rate = 0.0;
   std::vector<int> members;

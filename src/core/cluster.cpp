@@ -150,7 +150,7 @@ int merge_groups(BodyStore& b, const Box& box, int a, int other, double t, bool 
   c.x = wrap_into(com, box);
   c.v = velocity;
   c.mass = mass;
-  c.set_moments(eig.eigenvalues());
+  c.moments = eig.eigenvalues();
   c.rot = FreeRotation(c.moments, axes, L);
   c.max_rate = c.rot.max_rate();
   c.alive = true;

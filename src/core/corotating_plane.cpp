@@ -28,7 +28,7 @@ CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const K
   } else {
     hx_ = sx.half_length * std::abs(n0.dot(ux0)) + sx.radius * n0.cross(ux0).norm();
   }
-  has_rem_ = !(rem.x.center == 0.0 && rem.y.center == 0.0 && rem.x.turning == 0.0 && rem.y.turning == 0.0);
+  has_rem_ = !(rem.c_x == 0.0 && rem.c_y == 0.0 && rem.a_x == 0.0 && rem.a_y == 0.0);
   nx_rot_ = AxisRotation::of(n0_, wx_);
   uy_rot_ = AxisRotation::of(uy0_, wy_);
   wx_norm_ = wx_.norm();
@@ -68,14 +68,6 @@ CorotatingPlane::CorotatingPlane(const Kinematics& x, const Species& sx, const K
 
 double CorotatingPlane::at(double t) const { return state(t).s; }
 
-double CorotatingRemainder::Body::departure_within(double h) const {
-  const double a = turning_within(h), plain = 2.0 * a;
-  const double wh2 = rate * rate * h * h;
-  if (!rigid || !(wh2 < 1.0)) return plain;
-  const double P = spin + jerk * h + 2.0 * rate * (spin * h + 0.5 * jerk * h * h);
-  return std::min(plain, 2.0 * P / (2.0 - wh2));
-}
-
 double CorotatingPlane::advance(double t, double end, double target, double stop, long* evaluations,
                                 int budget) const {
   const double W = wx_norm_ + wy_norm_;  // bound on |c'| and sqrt|c''|
@@ -101,8 +93,7 @@ double CorotatingPlane::advance(double t, double end, double target, double stop
     for (double h = h_max; h > 1e-6 * h_max && h > step; h *= 0.25) {
       double g_min = 1.0;
       bool both_branches = false;
-      // The remainders over this step (CorotatingRemainder).
-      const double Wh = W + (rem_.x.turning_within(h) + rem_.y.turning_within(h)) * h;  // bound on the true |c'| over the step
+      const double Wh = W + (rem_.a_x + rem_.a_y) * h;  // bound on the true |c'| over the step
       if (!y_is_sphere_ && Wh > 0.0) {
         g_min = st.g - Wh * h;
         if (g_min <= 0.0) continue;  // may reach Y's face-on kink: a shorter step
@@ -113,9 +104,7 @@ double CorotatingPlane::advance(double t, double end, double target, double stop
       double M = wx_norm_ * wx_norm_ * (st.dx_norm + dv_norm_ * h) + 2.0 * wx_norm_ * dv_norm_;
       if (!y_is_sphere_) M += (ay_ + ry_ * (1.0 / (g_min * g_min * g_min) + 1.0 / g_min)) * W * W;
       // (Free bodies: every remainder bound is +0, the sum +0, and M + 0 = M.)
-      if (has_rem_)
-        M += rem_.x.center_within(h) + rem_.y.center_within(h) +
-             rem_.x.departure_within(h) * (st.dx_norm + dv_norm_ * h + bx_ + by_) + rem_.y.departure_within(h) * by_;
+      if (has_rem_) M += rem_.c_x + rem_.c_y + 2.0 * rem_.a_x * (st.dx_norm + dv_norm_ * h + bx_ + by_) + 2.0 * rem_.a_y * by_;
       auto first_root = [&](double s0, double rate) {
         // First root of (s0 - target) + rate h - M h^2 / 2 (s0 > target).
         const double d = s0 - target;

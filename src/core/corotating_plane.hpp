@@ -28,12 +28,8 @@
 // (centre accelerations c; a >= |Omega'| + |Omega|^2 of each body's turning;
 // r' the bodies' bounding radii): a direction turned by the true rotation
 // and by the frozen one differ by at most 2 a h^2 / 2 (both second
-// derivatives are bounded by a; a rigid member: by the sharper bound of
-// CorotatingRemainder), which moves the plane's normal and each support;
-// |c'| grows to at most |W| + (a_x + a_y) h over a step.
-
-#include <algorithm>
-#include <limits>
+// derivatives are bounded by a), which moves the plane's normal and each
+// support; |c'| grows to at most |W| + (a_x + a_y) h over a step.
 
 #include "core/axis_rotation.hpp"
 #include "core/body.hpp"
@@ -42,30 +38,10 @@
 namespace ringsim {
 
 // Second-order departure of the bodies' true motion from the first-order one
-// handed in (zero for free bodies), per body.
+// handed in (zero for free bodies).
 struct CorotatingRemainder {
-  struct Body {
-    // Over a step of length h each bound is min(all-time, at_t0 + slope h)
-    // (rigid members: from |Omega'(t0)| and a bound on |Omega''|,
-    // core/pose.hpp LocalMotion); at_t0 is infinite unless given, leaving
-    // the all-time bound.
-    double center = 0.0, center_t0 = std::numeric_limits<double>::infinity(), center_slope = 0.0;
-    double turning = 0.0, turning_t0 = std::numeric_limits<double>::infinity(), turning_slope = 0.0;
-    // A rigid member's turning departs from the frozen rotation by less than
-    // 2 a h^2 / 2 (the true and the frozen second derivatives each bounded
-    // by a): with D = Omega - Omega(t0), |D| <= spin s + jerk s^2 / 2, the
-    // departure e of a unit direction has e(0) = e'(0) = 0 and
-    //   |e''| <= |Omega'| + |D| (|Omega| + |Omega(t0)|) + W^2 |e|,
-    // so over [0, h] |e''| <= 2 P / (2 - W^2 h^2) with
-    // P = spin + jerk h + 2 W (spin h + jerk h^2 / 2) (W = max_rate, W h < 1).
-    bool rigid = false;
-    double spin = 0.0, jerk = 0.0, rate = 0.0;
-    double center_within(double h) const { return std::min(center, center_t0 + center_slope * h); }
-    double turning_within(double h) const { return std::min(turning, turning_t0 + turning_slope * h); }
-    // Bound on |e''| over a step of h: 2 a, or the rigid bound when smaller.
-    double departure_within(double h) const;
-  };
-  Body x, y;
+  double c_x = 0.0, c_y = 0.0;  // centre acceleration bounds
+  double a_x = 0.0, a_y = 0.0;  // turning-acceleration bounds
 };
 
 class CorotatingPlane {

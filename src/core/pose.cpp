@@ -1,6 +1,5 @@
 #include "core/pose.hpp"
 
-#include <algorithm>
 #include <cmath>
 
 namespace ringsim {
@@ -59,27 +58,15 @@ LocalMotion cluster_local_motion(const BodyStore& b, int i, double s) {
   // omega = I_world^-1 L = R diag(1/I) R^T L (L world and constant; R cached
   // by the caller's pose queries at s), without the elliptic functions.
   const Mat3& R = c.orientation_at(s);
-  const Vec3 wb = (R.transpose() * c.rot.angular_momentum()).cwiseQuotient(c.moments);  // body frame
+  const Vec3 omega = R * (R.transpose() * c.rot.angular_momentum()).cwiseQuotient(c.moments);
   // |omega'|: Euler's equations in the principal frame (Landau & Lifshitz,
   // Mechanics, section 36), I_1 w_1' = (I_2 - I_3) w_2 w_3 and cyclic, with
   // |w_j w_k| <= |omega|^2 / 2; the world-frame derivative has the same norm
   // (d/dt (R w) = R w' since R' w = omega x omega = 0).
-  const double k1 = c.euler_k[0], k2 = c.euler_k[1], k3 = c.euler_k[2], ks = c.euler_k_norm;
-  const double W = c.max_rate, W2 = W * W;
-  LocalMotion m{R * wb, W2 * (1.0 + 0.5 * ks)};
-  m.rigid = true;
-  m.rate = W;
-  m.spin_max = 0.5 * ks * W2;
-  // At s: w' = (k1 w2 w3, k2 w3 w1, k3 w1 w2) exactly; the margin covers the
-  // rounding of w (the orientation's ~1e-14) many times over.
-  const Vec3 dw(k1 * wb[1] * wb[2], k2 * wb[2] * wb[0], k3 * wb[0] * wb[1]);
-  m.spin = norm3(dw) + 1e-12 * W2;
-  // |omega''|: d/dt (R w') = R (w x w' + w''), so |omega''| <= W |w'| + |w''|,
-  // and w_1'' = k1 (w2' w3 + w2 w3') = k1 w1 (k2 w3^2 + k3 w2^2) and cyclic,
-  // |w_1''| <= |k1| kmax |w1| (W^2 - w1^2) <= |k1| kmax 2 W^3 / (3 sqrt 3)
-  // (|k_i| <= 1: the triangle inequality of principal moments).
-  m.jerk = W * m.spin_max + ks * c.euler_k_max * (2.0 / (3.0 * std::sqrt(3.0))) * W2 * W;
-  return m;
+  const Vec3& I = c.moments;
+  const double k1 = (I[1] - I[2]) / I[0], k2 = (I[2] - I[0]) / I[1], k3 = (I[0] - I[1]) / I[2];
+  const double W2 = c.max_rate * c.max_rate;
+  return {omega, W2 * (1.0 + 0.5 * std::sqrt(k1 * k1 + k2 * k2 + k3 * k3))};
 }
 
 geom::Cylinder body_cylinder(const BodyStore& b, int i, double t) {

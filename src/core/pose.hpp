@@ -12,7 +12,6 @@
 // distances (a sphere member: its centre; a linker: the whole solid). These
 // bounds are what conservative advancement steps with.
 
-#include <algorithm>
 #include <limits>
 
 #include "core/body.hpp"
@@ -112,43 +111,9 @@ double point_rotation_bound(const BodyStore& b, int i, double arm);
 // with v = reference_velocity. Free sphere: omega = 0, accel = 0 (its ball
 // never changes); free linker: omega = Omega, constant (core/motion.hpp).
 // Compliant member: about its own centre (RefMotion below).
-//
-// A rigid member has sharper bounds, from its cluster's state at s
-// (docs/ARCHITECTURE.md, "Rigid members' second order"):
-//  - |omega'(s + sigma)| <= spin + jerk sigma, spin = |omega'(s)| (Euler's
-//    equations at s) and jerk >= |omega''|, against A = spin_max for all
-//    times (on a rigid cluster ~50x the actual |omega'| where it chatters);
-//  - the centripetal part along a unit direction n keeps its sign:
-//    n.(omega x (omega x r)) = omega^T M omega with
-//    M = (n r^T + r n^T)/2 - (n.r) I, whose largest eigenvalue is
-//    (|r| - n.r)/2, so it is at most W^2 (|r| - n.r)/2 (W = max_rate):
-//    nothing at a point farthest along n from the centre of mass, which
-//    is where a body touches what lies beyond it;
-//  - with n.r(s + sigma) >= n.r(s) - W |r| sigma, each point obeys
-//    (n.x)'' <= |r| (spin + jerk sigma) + W^2 (|r| - n.r(s) + W |r| sigma) / 2,
-//    so n.x(s + tau) <= n.x + tau n.x' + c2 tau^2 + c3 tau^3 with the
-//    coefficients of directed_c2 and directed_c3 (lead = -n.r(s)).
 struct LocalMotion {
-  Vec3 omega;          // angular velocity of the solid at s (world)
-  double accel;        // bound on |r''| / |r| for all times
-  // Rigid members only (rigid false: accel is all there is).
-  bool rigid = false;
-  double spin_max = 0.0;  // A >= |omega'| for all times
-  double spin = 0.0;      // |omega'(s)|, with a margin for its rounding
-  double jerk = 0.0;      // >= |omega''| for all times
-  double rate = 0.0;      // W >= |omega| for all times
-
-  // Bound on |r''| / |r| over [s, s + tau_max], any direction (tau_max may be kNever).
-  double accel_within(double tau_max) const {
-    if (!rigid || !(tau_max < std::numeric_limits<double>::infinity())) return accel;
-    return std::min(spin_max, spin + jerk * tau_max) + rate * rate;
-  }
-  // The directed remainder's coefficients for a point at distance rho from
-  // the reference point with lead = -n.r(s) (a set of points: rho over the
-  // set, lead its largest -n.r, i.e. its support along -n about the
-  // reference point).
-  double directed_c2(double rho, double lead) const { return 0.5 * (spin * rho + 0.5 * rate * rate * (rho + lead)); }
-  double directed_c3(double rho) const { return (jerk + 0.5 * rate * rate * rate) * rho / 6.0; }
+  Vec3 omega;    // angular velocity of the solid at s (world)
+  double accel;  // bound on |r''| / |r| for all times
 };
 // Members of clusters only (compliant or rigid); local_motion below takes any body.
 LocalMotion cluster_local_motion(const BodyStore& b, int i, double s);

@@ -15,7 +15,6 @@ namespace ringsim {
 
 using detail::axis_motion;
 using detail::concave_reach;
-using detail::directed_reach;
 using detail::closed_window_end;
 using detail::point_motion;
 using detail::PointMotion;
@@ -96,8 +95,7 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       if (!g.certified) proven = r.value[r.best];
       normal = r.normal[r.best];
       const double stop = 0.75 * std::min(d, delta_);
-      // (Rigid members: their remainders over the search's remaining window.)
-      const OwnMotion mi = own_motion(b_, i, s, end - s), mj = own_motion(b_, j, s, end - s);
+      const OwnMotion mi = own_motion(b_, i, s), mj = own_motion(b_, j, s);
       // Two linkers side to side: the plane normal to both axes (no kink).
       if (b_.shape[i] == Shape::Linker && b_.shape[j] == Shape::Linker) {
         const CrossedAxesPlane xp(axis_motion(g.axis_a, b_.sp(i).radius, mi), axis_motion(g.axis_b, b_.sp(j).radius, mj),
@@ -137,24 +135,14 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
         };
         // Free bodies turn exactly as the frozen rotation: no remainder.
         CorotatingPlane::Remainder rem;
-        // (Rigid members: also the bounds per step from the state at s,
-        // |Omega'(s)| + W^2 growing at the |Omega''| bound.)
-        auto remainder = [&](int b, CorotatingRemainder::Body* part) {
+        auto remainder = [&](int b, double* c, double* a) {
           if (!in_cluster(b_, b)) return;
           const OwnMotion& m = b == i ? mi : mj;
-          const LocalMotion& l = m.local;
-          const bool linker = b_.shape[b] == Shape::Linker;
-          part->center = m.center_accel;
-          if (linker) part->turning = m.turning_accel;
-          if (!l.rigid) return;
-          const double at_s = l.spin + l.rate * l.rate;
-          part->center_t0 = at_s * m.reach, part->center_slope = l.jerk * m.reach;
-          if (!linker) return;
-          part->turning_t0 = at_s, part->turning_slope = l.jerk;
-          part->rigid = true, part->spin = l.spin, part->jerk = l.jerk, part->rate = l.rate;
+          *c = m.center_accel;
+          *a = b_.shape[b] == Shape::Linker ? m.turning_accel : 0.0;
         };
-        remainder(x, &rem.x);
-        remainder(y, &rem.y);
+        remainder(x, &rem.c_x, &rem.a_x);
+        remainder(y, &rem.c_y, &rem.a_y);
         const Vec3 cx = x == i ? g.center_a : g.center_b, cy = x == i ? g.center_b : g.center_a;
         const CorotatingPlane cp(first_order(x, cx), b_.sp(x), first_order(y, cy), b_.sp(y), n0, dxy, s, rem);
         const double reached = cp.advance(s, end, target, stop, &plane_evaluations_, 1);
@@ -175,8 +163,7 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       const Vec3& n = normal;
       const RefMotion ma = ref_motion(b_, i, s), mb = ref_motion(b_, j, s);
       const Vec3 ref_a = g.center_a + ma.offset, ref_b = g.center_b + mb.offset;
-      const SweptSupport sa(b_, i, s, n, g.center_a, ref_a, g.axis_a, end - s),
-          sb(b_, j, s, -n, g.center_b, ref_b, g.axis_b, end - s);
+      const SweptSupport sa(b_, i, s, n, g.center_a, ref_a, g.axis_a), sb(b_, j, s, -n, g.center_b, ref_b, g.axis_b);
       const double gap0 = n.dot(ref_b - ref_a), rate = n.dot(mb.v - ma.v), q = 0.5 * (ma.accel + mb.accel);
       auto lower = [&](double tau) { return gap0 + (rate - q * tau) * tau - sa.at(tau) - sb.at(tau); };
       advance_by = std::max(advance_by, concave_reach(lower, target, advance_by, end - s, &plane_evaluations_));
@@ -189,9 +176,8 @@ double Predictor::advance_generic(int i, int j, double t, double limit) {
       // Both are certified lower bounds over their steps: the longer holds.
       if (s + advance_by < end && b_.shape[i] == Shape::Linker && b_.shape[j] == Shape::Linker && g.certified &&
           d >= plane_band()) {
-        const CrossedAxesPlane xp(axis_motion(g.axis_a, b_.sp(i).radius, own_motion(b_, i, s, end - s)),
-                                  axis_motion(g.axis_b, b_.sp(j).radius, own_motion(b_, j, s, end - s)),
-                                  g.center_b - g.center_a);
+        const CrossedAxesPlane xp(axis_motion(g.axis_a, b_.sp(i).radius, own_motion(b_, i, s)),
+                                  axis_motion(g.axis_b, b_.sp(j).radius, own_motion(b_, j, s)), g.center_b - g.center_a);
         if (xp.usable() && xp.value() > target) advance_by = std::max(advance_by, xp.step(target, end - s));
       }
     }
@@ -246,7 +232,7 @@ WallHit Predictor::wall_generic(int i, double t, double limit) {
           // swept support bounds the support over the step (SweptSupport).
           const RefMotion rm = ref_motion(b_, i, sc);
           const Vec3 ref = c + rm.offset;
-          const SweptSupport sw(b_, i, sc, n, c, ref, end - sc);
+          const SweptSupport sw(b_, i, sc, n, c, ref);
           const double gap0 = (dir > 0 ? L : 0.0) - n.dot(ref), rate = -n.dot(rm.v), q = 0.5 * rm.accel;
           auto lower = [&](double tau) { return gap0 + (rate - q * tau) * tau - sw.at(tau); };
           advance_by = std::max(advance_by, concave_reach(lower, target, advance_by, end - sc, &plane_evaluations_));
@@ -284,13 +270,11 @@ double Predictor::leave_cell(int i, double t, double limit, const Vec3& lo, doub
       // centre's first-order motion (PointMotion); step to the first time any
       // of them can reach -eps/2.
       const Vec3 c = body_center(b_, i, s);
-      const PointMotion pm = point_motion(b_, i, s, c, reference_center(b_, i, s), limit - s);
+      const PointMotion pm = point_motion(b_, i, s, c, reference_center(b_, i, s));
       double reach = kNever;
       for (int d = 0; d < 3; ++d) {
-        Vec3 e = Vec3::Zero();
-        e[d] = 1.0;
-        reach = std::min(reach, directed_reach(x[d] - lo[d], pm.vel[d], pm.quad, pm.c2_along(-e), pm.c3(), -0.5 * eps));
-        reach = std::min(reach, directed_reach(lo[d] + w - x[d], -pm.vel[d], pm.quad, pm.c2_along(e), pm.c3(), -0.5 * eps));
+        reach = std::min(reach, quadratic_reach(x[d] - lo[d], pm.vel[d], pm.quad, -0.5 * eps));
+        reach = std::min(reach, quadratic_reach(lo[d] + w - x[d], -pm.vel[d], pm.quad, -0.5 * eps));
       }
       advance_by = std::max(advance_by, reach);
     }
@@ -381,12 +365,10 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
       const Vec3 p = cl + (end == 0 ? h : -h) * body_axis(b_, l, x);
       const Vec3 cs = p + box_.min_image(body_center(b_, s, x) - p);
       const Vec3 n = (cs - p).normalized();
-      const PointMotion mp = point_motion(b_, l, x, p, cl + (reference_center(b_, l, x) - body_center(b_, l, x)), stop - x);
-      const PointMotion ms = point_motion(b_, s, x, cs, cs + (reference_center(b_, s, x) - body_center(b_, s, x)), stop - x);
+      const PointMotion mp = point_motion(b_, l, x, p, cl + (reference_center(b_, l, x) - body_center(b_, l, x)));
+      const PointMotion ms = point_motion(b_, s, x, cs, cs + (reference_center(b_, s, x) - body_center(b_, s, x)));
       const double a = n.dot(cs - p) - rs - rc;
-      // The end's support along n and the sphere centre's along -n.
-      advance_by = std::max(advance_by, directed_reach(a, n.dot(ms.vel - mp.vel), mp.quad + ms.quad, mp.c2_along(n) + ms.c2_along(-n),
-                                                       mp.c3() + ms.c3(), 0.5 * delta_));
+      advance_by = std::max(advance_by, quadratic_reach(a, n.dot(ms.vel - mp.vel), mp.quad + ms.quad, 0.5 * delta_));
     }
     x += advance_by;
   }

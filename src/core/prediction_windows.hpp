@@ -98,25 +98,17 @@ inline bool wall_window_impl(double L, double x, double v, int dir, double reach
 // cylinder (support functions are positively homogeneous) and r for a sphere,
 // whose ball does not turn. A support function of an affine argument plus a
 // convex quadratic: convex in tau.
-// A rigid member's remainder may instead be the directed one of
-// LocalMotion (core/pose.hpp), c2 tau^2 + c3 tau^3 with lead = h(-n) about
-// ref: each point's -n.r term moves into the support's argument as
-// -(W^2 tau^2 / 4) n, and h(m - k n) <= h(m) + k h(-n) (sublinearity) leaves
-// coefficients that do not depend on the point; convex in tau as well.
-// Taken when it is the smaller over min(tau_max, 1/W).
 struct SweptSupport {
   Vec3 n, turn, offset, axis;
-  double radius = 0.0, half_length = 0.0, quad = 0.0, cubic = 0.0;
+  double radius = 0.0, half_length = 0.0, quad = 0.0;
   bool sphere = true;
   bool at_reference = false;  // offset == 0 (the centre is the reference point)
 
-  SweptSupport(const BodyStore& b, int i, double s, const Vec3& dir, const Vec3& center, const Vec3& ref,
-               double tau_max = kNever)
-      : SweptSupport(b, i, s, dir, center, ref, b.shape[i] == Shape::Sphere ? Vec3(Vec3::UnitZ()) : body_axis(b, i, s),
-                     tau_max) {}
+  SweptSupport(const BodyStore& b, int i, double s, const Vec3& dir, const Vec3& center, const Vec3& ref)
+      : SweptSupport(b, i, s, dir, center, ref, b.shape[i] == Shape::Sphere ? Vec3(Vec3::UnitZ()) : body_axis(b, i, s)) {}
   // The same with a linker's axis at s already known (a sphere's is unused).
   SweptSupport(const BodyStore& b, int i, double s, const Vec3& dir, const Vec3& center, const Vec3& ref,
-               const Vec3& axis_at_s, double tau_max = kNever) {
+               const Vec3& axis_at_s) {
     const Species& sp = b.sp(i);
     const LocalMotion lm = local_motion(b, i, s);
     n = dir;
@@ -130,20 +122,13 @@ struct SweptSupport {
     // |r| over the solid: the centre's offset plus the body's own extent
     // (a sphere: only its centre moves the ball).
     const double rho = offset.norm() + (sphere ? 0.0 : sp.bounding_radius);
-    quad = 0.5 * lm.accel_within(tau_max) * rho;
-    if (!lm.rigid) return;
-    // h(-n) about ref: the centre's -n.offset plus the solid's own support
-    // (a cylinder is symmetric about its centre).
-    double lead = -dot3(n, offset);
-    if (!sphere) lead += half_length * std::abs(dot3(axis, n)) + radius * cross_norm(axis, n);
-    const double c2 = lm.directed_c2(rho, std::max(lead, -rho)), c3 = lm.directed_c3(rho);
-    if (c2 + c3 * std::min(tau_max, 1.0 / lm.rate) < quad) quad = c2, cubic = c3;
+    quad = 0.5 * lm.accel * rho;
   }
   // (A free body's centre is its reference point: offset is exactly zero,
   // and its dot product, +-0, adds nothing to quad tau^2 >= +0.)
   double at(double tau) const {
     const Vec3 m = n + tau * turn;
-    double h = (quad + cubic * tau) * tau * tau;
+    double h = quad * tau * tau;
     if (!at_reference) h = dot3(m, offset) + h;
     if (sphere) return h + radius;
     return h + half_length * std::abs(dot3(axis, m)) + radius * cross_norm(axis, m);
@@ -158,7 +143,7 @@ struct SweptSupport {
 // the caller evaluates them one by one.
 struct SweptSupportPair {
   explicit SweptSupportPair(const SweptSupport& a, const SweptSupport& b)
-      : ok(!a.sphere && !b.sphere && a.at_reference && b.at_reference && a.cubic == 0.0 && b.cubic == 0.0) {
+      : ok(!a.sphere && !b.sphere && a.at_reference && b.at_reference) {
 #if defined(__SSE2__)
     if (!ok) return;
     for (int c = 0; c < 3; ++c) {
@@ -253,19 +238,11 @@ inline double quadratic_reach(double a, double b, double c, double level) {
 
 // First-order motion of one material point x of body i at s (LocalMotion):
 // velocity and the bound on the remainder, |x(s + tau) - x - vel tau| <= quad tau^2.
-// A rigid member's point also has the directed remainder of LocalMotion
-// along a unit n: n.x(s + tau) <= n.x + tau n.vel + c2(n) tau^2 + c3 tau^3.
 struct PointMotion {
   Vec3 vel;
   double quad;
-  LocalMotion lm{Vec3::Zero(), 0.0};  // rigid: the data of c2_along
-  Vec3 r = Vec3::Zero();
-  double rho = 0.0;
-  double c2_along(const Vec3& n) const { return lm.rigid ? lm.directed_c2(rho, -dot3(n, r)) : quad; }
-  double c3() const { return lm.rigid ? lm.directed_c3(rho) : 0.0; }
 };
-inline PointMotion point_motion(const BodyStore& b, int i, double s, const Vec3& x, const Vec3& ref,
-                                double tau_max = kNever) {
+inline PointMotion point_motion(const BodyStore& b, int i, double s, const Vec3& x, const Vec3& ref) {
   const LocalMotion lm = local_motion(b, i, s);
   if (is_compliant(b, i)) {
     // About the member's own centre, which moves within its track's bound.
@@ -274,19 +251,7 @@ inline PointMotion point_motion(const BodyStore& b, int i, double s, const Vec3&
     return {track_velocity(k, s) + lm.omega.cross(x - c), 0.5 * (k.center_accel + lm.accel * (x - c).norm())};
   }
   const Vec3 r = x - ref;
-  const double rho = r.norm();
-  return {reference_velocity(b, i) + lm.omega.cross(r), 0.5 * lm.accel_within(tau_max) * rho, lm, r, rho};
-}
-// Largest tau >= 0 with a + b tau - plain tau^2 >= level and, if it reaches
-// further, with a + b tau - c2 tau^2 - c3 tau^3 >= level (two certified
-// lower bounds of one function: the longer reach holds). The cubic is
-// bounded by c3 cap tau^2 up to cap = 4x the plain reach.
-inline double directed_reach(double a, double b, double plain, double c2, double c3, double level) {
-  const double tp = quadratic_reach(a, b, plain, level);
-  const double cap = 4.0 * tp;
-  const double c = c2 + c3 * cap;
-  if (!(cap < kNever) || !(c < plain)) return tp;
-  return std::max(tp, std::min(cap, quadratic_reach(a, b, c, level)));
+  return {reference_velocity(b, i) + lm.omega.cross(r), 0.5 * lm.accel * r.norm()};
 }
 
 // Body i's first-order motion at s about its own centre: the centre's
@@ -296,25 +261,20 @@ inline double directed_reach(double a, double b, double plain, double c2, double
 // cluster's centre of mass at distance reach, |x''| <= accel reach; a free
 // body's centre moves on a line) and the turning's, |Omega'| + |Omega|^2 >= |u''|
 // (LocalMotion's accel).
-// A rigid member over a step of at most tau_max: LocalMotion::accel_within
-// (`local` keeps its data for bounds per step, CorotatingRemainder).
 struct OwnMotion {
   Vec3 v, omega;
   double center_accel, turning_accel;
-  LocalMotion local;
-  double reach;  // a rigid member's distance from its cluster's centre of mass
 };
-inline OwnMotion own_motion(const BodyStore& b, int i, double s, double tau_max = kNever) {
+inline OwnMotion own_motion(const BodyStore& b, int i, double s) {
   const RefMotion m = ref_motion(b, i, s);
   const LocalMotion l = local_motion(b, i, s);
   // ref_motion's offset = reference point - centre (a rigid member's
   // reference point is its cluster's centre of mass).
   const Vec3 v = m.v - l.omega.cross(m.offset);
-  const double accel = l.accel_within(tau_max);
   double c = 0.0;
   if (is_compliant(b, i)) c = b.track[i].center_accel;
-  else if (b.group[i] >= 0) c = accel * b.reach[i];
-  return {v, l.omega, c, accel, l, l.rigid ? b.reach[i] : 0.0};
+  else if (b.group[i] >= 0) c = l.accel * b.reach[i];
+  return {v, l.omega, c, l.accel};
 }
 
 // A linker's data for CrossedAxesPlane (core/crossed_axes.hpp) at s: its axis
