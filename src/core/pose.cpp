@@ -1,5 +1,6 @@
 #include "core/pose.hpp"
 
+#include <cassert>
 #include <cmath>
 
 namespace ringsim {
@@ -54,7 +55,8 @@ LocalMotion cluster_local_motion(const BodyStore& b, int i, double s) {
     const Vec3 u = track_axis(k, s);
     return {w - w.dot(u) * u, k.axis_accel};  // the spin does not move the shape
   }
-  const Cluster& c = b.clusters[b.group[i]];  // a rigid member (local_motion takes free bodies)
+  assert(b.group[i] >= 0);  // a rigid member (local_motion takes free bodies)
+  const Cluster& c = b.clusters[b.group[i]];
   // omega = I_world^-1 L = R diag(1/I) R^T L (L world and constant; R cached
   // by the caller's pose queries at s), without the elliptic functions.
   const Mat3& R = c.orientation_at(s);

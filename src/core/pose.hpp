@@ -93,6 +93,20 @@ inline double reference_offset(const BodyStore& b, int i) {
   return b.group[i] < 0 ? 0.0 : b.reach[i];
 }
 inline double reference_radius(const BodyStore& b, int i) { return b.sp(i).bounding_radius + reference_offset(b, i); }
+// The three together (reference point at t, its velocity, the radius), with
+// one test of the body's kind: the neighbour loop's windows ask for them for
+// every neighbour, most of them free bodies.
+struct ReferencePoint {
+  Vec3 x, v;
+  double radius;
+};
+inline ReferencePoint reference_point(const BodyStore& b, int i, double t) {
+  if (b.cgroup[i] < 0 && b.group[i] < 0) {
+    const Kinematics& k = b.kin[i];
+    return {position_at(k, t), k.v, b.sp(i).bounding_radius};
+  }
+  return {reference_center(b, i, t), reference_velocity(b, i), reference_radius(b, i)};
+}
 // Largest speed, relative to the reference point, of any point of the solid
 // that can change a distance to this body (a sphere: its centre only).
 double rotation_bound(const BodyStore& b, int i);

@@ -5,11 +5,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/contact.hpp"
+#include "core/corotating_plane.hpp"
 #include "core/motion.hpp"
 #include "core/pose.hpp"
 #include "core/prediction_windows.hpp"
-#include "core/contact.hpp"
-#include "core/corotating_plane.hpp"
 #include "core/separating_plane.hpp"
 
 namespace ringsim {
@@ -138,20 +138,11 @@ double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
 double Predictor::window_enter(const WindowSelf& self, int j, double t) const {
   // self.x: i's reference point at t (its centre, or its cluster's centre of
   // mass). In a periodic box another image may come into range first
-  // (ImageReturn). (A free j's reference point, velocity and radius in line:
-  // pose.hpp's reference_* take that branch, radius + offset 0.)
-  Vec3 dx, dv;
-  double R;
-  if (b_.cgroup[j] < 0 && b_.group[j] < 0) {
-    const Kinematics& k = b_.kin[j];
-    dx = box_.min_image(position_at(k, t) - self.x);
-    dv = k.v - self.v;
-    R = self.radius + b_.sp(j).bounding_radius + delta_;
-  } else {
-    dx = box_.min_image(reference_center(b_, j, t) - self.x);
-    dv = reference_velocity(b_, j) - self.v;
-    R = self.radius + reference_radius(b_, j) + delta_;
-  }
+  // (ImageReturn).
+  const ReferencePoint other = reference_point(b_, j, t);
+  const Vec3 dx = box_.min_image(other.x - self.x);
+  const Vec3 dv = other.v - self.v;
+  const double R = self.radius + other.radius + delta_;
   double enter, leave;
   const bool open = sphere_window(dx, dv, R, &enter, &leave);
   if (!box_.periodic || R <= image_safe_radius_) return open ? t + enter : kNever;
@@ -284,19 +275,19 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
       const Vec3& n = g.sep.normal;
       const SweptSupport sa(b_, i, s, n, g.center_a, g.center_a, g.axis_a), sb(b_, j, s, -n, g.center_b, g.center_b, g.axis_b);
       const double gap0 = n.dot(g.center_b - g.center_a), rate = n.dot(dv);
+      // (Two free linkers: both supports in one two-lane evaluation, the same bits.)
       const detail::SweptSupportPair both(sa, sb);
-      const double tau0 = std::max((d - target) / bound, min_step(bound));
-      if (both.usable()) {
-        auto lower = [&](double tau) {
-          double ha, hb;
+      auto lower = [&](double tau) {
+        double ha, hb;
+        if (both.usable()) {
           both.at(tau, &ha, &hb);
-          return gap0 + rate * tau - ha - hb;
-        };
-        swept_to = s + concave_reach(lower, target, tau0, end - s, &plane_evaluations_);
-      } else {
-        auto lower = [&](double tau) { return gap0 + rate * tau - sa.at(tau) - sb.at(tau); };
-        swept_to = s + concave_reach(lower, target, tau0, end - s, &plane_evaluations_);
-      }
+        } else {
+          ha = sa.at(tau);
+          hb = sb.at(tau);
+        }
+        return gap0 + rate * tau - ha - hb;
+      };
+      swept_to = s + concave_reach(lower, target, std::max((d - target) / bound, min_step(bound)), end - s, &plane_evaluations_);
     }
     // Proven free to the end of the search (the usual way a search ends
     // without a contact): the tighter planes below could only prove more of
