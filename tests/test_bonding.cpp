@@ -149,6 +149,73 @@ TEST(Capture, AFailedCaptureChangesNothingAndDoesNotRepeatInsideTheShell) {
   EXPECT_GE(sim.stats().collisions, 1);
 }
 
+// The capture hysteresis is the pair's state, not the gap's. The head-on
+// approach of HeadOnSphereIsCapturedWhenTheGapReachesTheCaptureDistance
+// (gap - r_c = 6.9 - t): a search that starts in the firing band (gap - r_c
+// <= delta) closing fires at once - the gap entered the band since the last
+// search, which stopped short of its capture - unless the rules refused the
+// pair's capture, which must then leave the shell first (it does not here:
+// the sphere goes on into the linker). A search that starts outside the
+// shell forgets the refusal; a pair in the band opening does not fire.
+TEST(Capture, ASearchStartedInTheFiringBandFiresUnlessTheCaptureWasRefused) {
+  SimParams p = bonding_params();
+  const Vec3 c(20, 20, 20);
+  const double delta = p.run.contact_tolerance, rc = p.bonding.capture_distance;
+  for (const double speed : {-1.0, 1.0}) {
+    SCOPED_TRACE(speed < 0.0 ? "closing" : "opening");
+    // At t_in the centre is 10 - 6.9 + 0.9e-9 from end 0 along x (either way).
+    const double t_in = 6.9 - 0.9 * delta;
+    const Vec3 x0 = speed < 0.0 ? c + Vec3(10, 0, 0) : c + Vec3(2.0 + 1.1 + 0.9 * delta - t_in, 0, 0);
+    BodyStore b = make_bodies(p, {{Shape::Sphere, x0, Vec3(speed, 0, 0), Vec3::UnitZ(), kZero},
+                                  {Shape::Linker, c, kZero, Vec3::UnitX(), kZero}});
+    b.free_all();
+    Predictor pred(b, Box{40.0, false}, delta);
+    const double g_in = pred.capture_gap(1, 0, 0, t_in, rc);
+    ASSERT_GT(g_in, 0.5 * delta);
+    ASSERT_LE(g_in, delta);
+    if (speed > 0.0) {
+      EXPECT_EQ(pred.capture(1, 0, 0, t_in, 20.0, rc), kNever);
+      continue;
+    }
+    EXPECT_NEAR(pred.capture(1, 0, 0, 0.0, 20.0, rc), 6.9, delta);
+    EXPECT_EQ(pred.capture(1, 0, 0, t_in, 20.0, rc), t_in);
+    pred.capture_refused(1, 0, 0);
+    EXPECT_EQ(pred.capture(1, 0, 0, t_in, 20.0, rc), kNever);
+    EXPECT_EQ(pred.capture(1, 0, 0, t_in, 20.0, rc), kNever);  // still refused: it never left
+    EXPECT_NEAR(pred.capture(1, 0, 0, 0.0, 20.0, rc), 6.9, delta);  // from outside: forgotten
+    EXPECT_EQ(pred.capture(1, 0, 0, t_in, 20.0, rc), t_in);
+  }
+}
+
+// Through the event loop: the same approach, placed so that the sphere
+// crosses a cell face 7e-10 before the gap reaches r_c, i.e. in the firing
+// band. The search made before the crossing stops at the crossing (its next
+// event), short of the capture; the re-prediction there starts in the band.
+// The capture fires there and the bond forms. (Before the hysteresis was
+// kept as the pair's state, that search first looked for the way out of the
+// shell and the capture was lost: the sphere hit the linker's end face.)
+TEST(Capture, ARePredictionInsideTheFiringBandKeepsTheCapture) {
+  SimParams p = bonding_params();
+  p.run.t_max = 10.0;
+  const Vec3 c(20, 20, 20);
+  const double w =
+      Simulation(p, make_bodies(p, {{Shape::Sphere, c, kZero, Vec3::UnitZ(), kZero}})).grid().cell_width();
+  const double face = w * std::floor(28.0 / w), t_cross = 6.9 - 7e-10;
+  const Vec3 x0(face + t_cross, c.y(), c.z());  // the sphere crosses `face` at t_cross
+  BodyStore b = make_bodies(p, {{Shape::Sphere, x0, Vec3(-1, 0, 0), Vec3::UnitZ(), kZero},
+                                {Shape::Linker, x0 - Vec3(10, 0, 0), kZero, Vec3::UnitX(), kZero}});
+  Simulation sim(p, std::move(b));
+  sim.enable_log(true);
+  const double t = run_to_first_bond(sim);
+  bool crossed = false;
+  for (const auto& e : sim.log())
+    if (e.type == EventType::CellCross && e.a == 0 && std::abs(e.time - t_cross) < 1e-12) crossed = true;
+  ASSERT_TRUE(crossed);  // the case is the one described
+  EXPECT_NEAR(t, 6.9, 1e-9);
+  EXPECT_EQ(sim.stats().bonds, 1);
+  EXPECT_EQ(sim.stats().collisions, 0);
+}
+
 double kinetic_energy(const BodyStore& b, double t) { return mechanical_totals(b, t).energy; }
 
 TEST(RigidMerge, ConservesMomentumAndAngularMomentumAndNeverGainsEnergy) {

@@ -16,6 +16,12 @@
 namespace ringsim {
 
 bool Simulation::rules_allow(int s, int l, int end, double t) {
+  if (rules_pass(s, l, end, t)) return true;
+  predictor_.capture_refused(l, end, s);
+  return false;
+}
+
+bool Simulation::rules_pass(int s, int l, int end, double t) {
   const BondingParams& bp = params_.bonding;
   // 1. valency: a free end, a sphere below its valency.
   if (bp.end_valency < 1 || graph_.sphere_of(l, end) >= 0 || graph_.degree(s) >= bp.sphere_valency) {

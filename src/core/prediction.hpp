@@ -32,6 +32,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "core/body.hpp"
 #include "core/geometry.hpp"
@@ -155,10 +156,18 @@ class Predictor {
   // Capture (MODEL.md, "Capture and bond formation"): earliest time in
   // [t, limit) at which the gap g = |p - x_S| - r_S between end `end` of
   // linker l (p = x + h u for end 0, x - h u for end 1) and sphere s falls
-  // through `rc`, i.e. g <= rc + delta while decreasing. A capture is armed only
-  // from outside the shell: a pair that starts inside (g <= rc + delta, e.g.
-  // after a capture that failed the rules) must first leave it (g > rc + 2 delta).
+  // through `rc`, i.e. g <= rc + delta while decreasing. Hysteresis: a pair
+  // whose capture was refused (capture_refused) must leave the shell
+  // (g > rc + 2 delta) before it can fire again. Any other pair that starts in
+  // the firing band closing fires at t: the search was re-started (a cell
+  // crossing, a partner's event) between the gap's entry into the band and
+  // the capture predicted before it.
   double capture(int l, int end, int s, double t, double limit, double rc);
+  // The rules refused the capture of end `end` of l by s (or a pair already
+  // inside the shell at t = 0 or at a merge): it may fire again only after
+  // the end has left the shell; forgotten by the first search of the pair
+  // that starts outside it.
+  void capture_refused(int l, int end, int s);
   // Capture gap g - rc at t (minimum image).
   double capture_gap(int l, int end, int s, double t, double rc) const;
 
@@ -241,7 +250,11 @@ class Predictor {
   double advance_generic(int i, int j, double t, double limit);
   // capture() on the minimum image of t (sets image_closed_, proven_until_
   // as the pair searches do).
-  double capture_on_image(int l, int end, int s, double t, double limit, double rc);
+  // `now`: the search starts at the caller's time (not at the end of an
+  // earlier image's proof), where the hysteresis state applies.
+  double capture_on_image(int l, int end, int s, double t, double limit, double rc, bool now);
+  bool refused(int l, int end, int s) const;
+  void forget_refused(int l, int end, int s);
   // A search on the minimum image of its start, search(from), run again from
   // where its proof ends while it ends on a window closed before `limit`: in a
   // periodic box another image can come back (ImageReturn). With no limit at
@@ -289,6 +302,9 @@ class Predictor {
   // proven_until_ may stop short of its limit (periodic box, ImageReturn).
   bool image_closed_ = false;
   double image_safe_radius_ = -kNever;
+  // Refused captures still inside their shell: sphere ids per linker end
+  // (index 2 l + end), almost always empty.
+  std::vector<std::vector<int>> refused_;
 };
 
 }  // namespace ringsim

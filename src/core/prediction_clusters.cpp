@@ -294,10 +294,29 @@ double Predictor::capture(int l, int end, int s, double t, double limit, double 
   limit = std::min({limit, motion_horizon(b_, l), motion_horizon(b_, s)});
   // As in pair(). (Where a closed window's proof ends the gap exceeds
   // 2 delta, so the search from there starts armed.)
-  return across_images(t, limit, [&](double from) { return capture_on_image(l, end, s, from, limit, rc); });
+  return across_images(t, limit,
+                       [&, t0 = t](double from) { return capture_on_image(l, end, s, from, limit, rc, from == t0); });
 }
 
-double Predictor::capture_on_image(int l, int end, int s, double t, double limit, double rc) {
+void Predictor::capture_refused(int l, int end, int s) {
+  const std::size_t k = 2 * static_cast<std::size_t>(l) + static_cast<std::size_t>(end);
+  if (refused_.size() <= k) refused_.resize(k + 1);
+  if (!refused(l, end, s)) refused_[k].push_back(s);
+}
+
+bool Predictor::refused(int l, int end, int s) const {
+  const std::size_t k = 2 * static_cast<std::size_t>(l) + static_cast<std::size_t>(end);
+  return k < refused_.size() && std::find(refused_[k].begin(), refused_[k].end(), s) != refused_[k].end();
+}
+
+void Predictor::forget_refused(int l, int end, int s) {
+  const std::size_t k = 2 * static_cast<std::size_t>(l) + static_cast<std::size_t>(end);
+  if (k >= refused_.size()) return;
+  auto& v = refused_[k];
+  v.erase(std::remove(v.begin(), v.end(), s), v.end());
+}
+
+double Predictor::capture_on_image(int l, int end, int s, double t, double limit, double rc, bool now) {
   const double h = b_.sp(l).half_length;
   const double rs = b_.sp(s).radius;
   // Window: the end point stays within h (+ reach) of l's reference point, the
@@ -308,7 +327,11 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
   const Vec3 dv = reference_velocity(b_, s) - reference_velocity(b_, l);
   const double R = rl + rsph + rs + rc + 2.0 * delta_;
   double enter, leave;
-  if (!sphere_window(dx, dv, R, &enter, &leave)) {
+  const bool window = sphere_window(dx, dv, R, &enter, &leave);
+  // Outside the shell by more than 2 delta now (the window's radius includes
+  // rc + 2 delta): a refused capture has left it.
+  if (now && (!window || enter > 0.0)) forget_refused(l, end, s);
+  if (!window) {
     proven_until_ = closed_window_end(box_, dx, dv, R, t, 0.0);
     image_closed_ = true;
     return kNever;
@@ -322,11 +345,25 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
   if (bound == 0.0) return kNever;
   const double floor_step = min_step(bound);
   double x = t;
+  // The gap's rate at x along the line from the end to the sphere's centre
+  // (negative: closing).
+  auto closing = [&](double at) {
+    const Vec3 cl = body_center(b_, l, at);
+    const Vec3 p = cl + (end == 0 ? h : -h) * body_axis(b_, l, at);
+    const Vec3 cs = p + box_.min_image(body_center(b_, s, at) - p);
+    const Vec3 n = (cs - p).normalized();
+    return n.dot(shape_point_velocity(b_, s, at, cs, cs) - shape_point_velocity(b_, l, at, p, cl)) < 0.0;
+  };
   // A window that opens later means the gap at t exceeds 2 delta (the
   // window's radius includes rc + 2 delta): no need to evaluate it.
   double g = enter > 0.0 ? kNever : capture_gap(l, end, s, x, rc);
-  // Inside the shell or its firing band: first find the way out (to beyond
-  // 2 delta, a hysteresis that keeps a failed capture from firing again).
+  if (now && g > 2.0 * delta_) forget_refused(l, end, s);
+  // In the firing band and closing, not refused: the gap entered the band
+  // since the last search (which stopped short of its capture), fire now.
+  if (g <= delta_ && !(now && refused(l, end, s)) && closing(x)) return x;
+  // Otherwise inside the shell or its firing band: first find the way out (to
+  // beyond 2 delta, the hysteresis that keeps a refused capture from firing
+  // again).
   for (int step = 0; g <= (step == 0 ? delta_ : 2.0 * delta_); ++step) {
     if (step == kMaxSteps) {
       fail("capture (leaving the shell)", l, s, t, x, g, bound);
@@ -346,12 +383,7 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
     g = capture_gap(l, end, s, x, rc);
     if (g <= delta_) {
       // In the firing band: a capture if the gap is closing.
-      const Vec3 cl = body_center(b_, l, x);
-      const Vec3 p = cl + (end == 0 ? h : -h) * body_axis(b_, l, x);
-      const Vec3 cs = p + box_.min_image(body_center(b_, s, x) - p);
-      const Vec3 n = (cs - p).normalized();
-      const double rate = n.dot(shape_point_velocity(b_, s, x, cs, cs) - shape_point_velocity(b_, l, x, p, cl));
-      if (rate < 0.0) return x;
+      if (closing(x)) return x;
       x += floor_step;
       continue;
     }

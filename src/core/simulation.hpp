@@ -238,7 +238,10 @@ class Simulation {
   void bump(int i, double t);           // trajectory of i's group changed at t
   void process_capture(int i, const Event& ev, double t);
   // Bond rules (MODEL.md) for sphere s and end `end` of linker l at time t.
+  // A refusal is the pair's capture hysteresis too: it may capture again only
+  // after the end has left the shell (Predictor::capture_refused).
   bool rules_allow(int s, int l, int end, double t);
+  bool rules_pass(int s, int l, int end, double t);
   // Forms the bond, merges groups and closes rings; re-predicts the cluster.
   void form_bond(int s, int l, int end, double t);
   void check_initial_captures();
