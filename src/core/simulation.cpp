@@ -62,7 +62,7 @@ std::string frozen_time_message(const Event& ev, int body, const SimParams& p) {
   out.precision(6);
   out << "time stopped at t = " << ev.time;
   if (p.run.min_separation_speed == 0.0)
-    out << " (resting contact: run.min_separation_speed = 0; set it > 0, e.g. 1e-06)";
+    out << " (resting contact: run.min_separation_speed = 0; set it > 0, e.g. 1e-04)";
   if (p.run.tc_time == 0.0) out << " (inelastic collapse: run.tc_time = 0; set it > 0, e.g. 1e-04)";
   out << ": more than " << Simulation::kFrozenEvents << " events in a row at this instant, the last a "
       << event_kind(ev.type) << " of body " << body;
