@@ -411,7 +411,10 @@ const std::vector<KeyDesc>& key_table() {
       key<&S::run, &R::tc_time>("run.tc_time", at_least(0),
           "TC-model collision-time window (Luding & McNamara 1998) against inelastic collapse; 0 = off (a collapsing cluster then stops time, and the run ends with `error` \"time stopped\")"),
       key<&S::run, &R::min_separation_speed>("run.min_separation_speed", at_least(0),
-          "floor of the normal separation speed a contact leaves (stops resting contacts bouncing for ever inside the contact band); 0 = off (a pair resting at restitution 0 then fires at one instant for ever, and the run ends with `error` \"time stopped\")"),
+          "floor of the normal separation speed a contact leaves (stops resting contacts bouncing for ever inside "
+          "the contact band; a higher floor makes resting contacts cheaper and adds at most m_eff floor^2 / 2 of "
+          "energy per floored contact, docs/ARCHITECTURE.md); 0 = off (a pair resting at restitution 0 then fires "
+          "at one instant for ever, and the run ends with `error` \"time stopped\")"),
       key<&S::run, &R::cell_size>("run.cell_size", at_least(0),
           "edge of the neighbour-search cells; 0 = automatic"),
       key<&S::run, &R::sphere_candidates>("run.sphere_candidates", closed(0, 64),
