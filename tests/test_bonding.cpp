@@ -379,6 +379,16 @@ TEST(RestingContact, LinkerTiltingUnderAClusterSphereIsSearchedWithFewSteps) {
               static_cast<unsigned long long>(pred.search_counts().cluster_pair));
 }
 
+// Two free linkers turning about skew axes, the second one at x = x2 (axes
+// drawn from rng).
+BodyStore two_turning_linkers(const SimParams& p, std::mt19937_64& rng, double x2) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  BodyStore b = make_bodies(p, {{Shape::Linker, Vec3(5, 5, 5), kZero, Vec3(u(rng), u(rng), 1.0), Vec3(0.3, -0.2, 0.9)},
+                                {Shape::Linker, Vec3(x2, 5, 5), kZero, Vec3(1.0, u(rng), 0.0), Vec3(-0.7, 0.1, 0.2)}});
+  b.free_all();
+  return b;
+}
+
 // The free-pair search's two-lane swept supports (prediction_windows.hpp,
 // SweptSupportPair) and a support track's sine/cosine memo
 // (separating_plane.hpp) give the one-by-one, memo-free values bit for bit.
@@ -386,9 +396,7 @@ TEST(Pose, TwoLaneSweptSupportsAndTrackMemoMatchScalar) {
   SimParams p = bonding_params();
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  BodyStore b = make_bodies(p, {{Shape::Linker, Vec3(5, 5, 5), kZero, Vec3(u(rng), u(rng), 1.0), Vec3(0.3, -0.2, 0.9)},
-                                {Shape::Linker, Vec3(7, 5, 5), kZero, Vec3(1.0, u(rng), 0.0), Vec3(-0.7, 0.1, 0.2)}});
-  b.free_all();
+  BodyStore b = two_turning_linkers(p, rng, 7.0);
   auto bits_equal = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
   for (int k = 0; k < 500; ++k) {
     const double s = 3.0 * std::abs(u(rng));
@@ -424,9 +432,7 @@ TEST(Pose, AxisMemoEqualsDirectEvaluation) {
   SimParams p = bonding_params();
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  BodyStore b = make_bodies(p, {{Shape::Linker, Vec3(5, 5, 5), kZero, Vec3(u(rng), u(rng), 1.0), Vec3(0.3, -0.2, 0.9)},
-                                {Shape::Linker, Vec3(9, 5, 5), kZero, Vec3(1.0, u(rng), 0.0), Vec3(-0.7, 0.1, 0.2)}});
-  b.free_all();
+  BodyStore b = two_turning_linkers(p, rng, 9.0);
   ASSERT_EQ(b.axis_memo.size(), 2u);
   for (int k = 0; k < 2000; ++k) {
     const int i = k % 2;
@@ -464,7 +470,7 @@ TEST(PairSearch, WindowEntryCountsTheNextPeriodicImage) {
   const double delta = p.run.contact_tolerance;
   Predictor pred(b, Box{10.0, true}, delta);
   const double R = 2.0 * b.sp(0).bounding_radius + delta;
-  EXPECT_LE(pred.window_enter(0, 1, 0.0, reference_center(b, 0, 0.0)), 5.1 - R + 1e-12);
+  EXPECT_LE(pred.window_enter(pred.window_self(0, reference_center(b, 0, 0.0)), 1, 0.0), 5.1 - R + 1e-12);
   const double tc = pred.pair(0, 1, 0.0, 4.0, reference_center(b, 0, 0.0));
   EXPECT_NEAR(tc, 5.1 - 2.0 - 0.75 * delta, 0.25 * delta + 1e-12);
 }

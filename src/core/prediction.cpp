@@ -131,10 +131,6 @@ Predictor::WindowSelf Predictor::window_self(int i, const Vec3& xi) const {
   return {xi, reference_velocity(b_, i), reference_radius(b_, i)};
 }
 
-double Predictor::window_enter(int i, int j, double t, const Vec3& xi) const {
-  return window_enter(window_self(i, xi), j, t);
-}
-
 double Predictor::window_enter(const WindowSelf& self, int j, double t) const {
   // self.x: i's reference point at t (its centre, or its cluster's centre of
   // mass). In a periodic box another image may come into range first

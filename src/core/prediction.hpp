@@ -127,10 +127,9 @@ class Predictor {
   // centre at t (hoisted out of the caller's neighbour loop).
   double pair(int i, int j, double t, double limit, const Vec3& xi);
   // When the bounding spheres of i and j (plus delta) first overlap, from t;
-  // kNever if they never do. No contact can happen before it.
-  double window_enter(int i, int j, double t, const Vec3& xi) const;
-  // The same with i's part (reference point at t, its velocity and radius)
-  // computed once for a neighbour loop (window_self).
+  // kNever if they never do. No contact can happen before it. i's part (its
+  // reference point xi at t, its velocity and radius) is computed once for a
+  // neighbour loop: window_self(i, xi).
   struct WindowSelf {
     Vec3 x, v;
     double radius;

@@ -328,9 +328,11 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
   const double R = rl + rsph + rs + rc + 2.0 * delta_;
   double enter, leave;
   const bool window = sphere_window(dx, dv, R, &enter, &leave);
-  // Outside the shell by more than 2 delta now (the window's radius includes
-  // rc + 2 delta): a refused capture has left it.
-  if (now && (!window || enter > 0.0)) forget_refused(l, end, s);
+  // The gap at t. A window that is closed or opens later means it exceeds
+  // 2 delta (the window's radius includes rc + 2 delta): no need to evaluate it.
+  double g = !window || enter > 0.0 ? kNever : capture_gap(l, end, s, t, rc);
+  // Outside the shell by more than 2 delta now: a refused capture has left it.
+  if (now && g > 2.0 * delta_) forget_refused(l, end, s);
   if (!window) {
     proven_until_ = closed_window_end(box_, dx, dv, R, t, 0.0);
     image_closed_ = true;
@@ -354,10 +356,6 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
     const Vec3 n = (cs - p).normalized();
     return n.dot(shape_point_velocity(b_, s, at, cs, cs) - shape_point_velocity(b_, l, at, p, cl)) < 0.0;
   };
-  // A window that opens later means the gap at t exceeds 2 delta (the
-  // window's radius includes rc + 2 delta): no need to evaluate it.
-  double g = enter > 0.0 ? kNever : capture_gap(l, end, s, x, rc);
-  if (now && g > 2.0 * delta_) forget_refused(l, end, s);
   // In the firing band and closing, not refused: the gap entered the band
   // since the last search (which stopped short of its capture), fire now.
   if (g <= delta_ && !(now && refused(l, end, s)) && closing(x)) return x;
