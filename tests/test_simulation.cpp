@@ -168,6 +168,52 @@ TEST(PartnerHorizon, SameEventsAsOwnHorizonSearchesPeriodicLinkers) {
   expect_same_events_both_horizons(p, 4, 600);
 }
 
+// The profile (ringsim replicate --profile) accounts for every event and
+// search, and profiling changes nothing: the same events, bit for bit.
+TEST(Profile, CountsEveryEventAndSearchAndChangesNoEvent) {
+  SimParams p;  // the default scene: Scenario 4, captures, rigid clusters
+  p.run.t_max = 20.0;
+  const auto plain = event_log(p, 5);
+  Simulation sim(p, build_scene(p, 5, 0, nullptr));
+  sim.enable_log(true);
+  sim.enable_profile(true);
+  sim.run();
+  const auto& profiled = sim.log();
+  ASSERT_GT(plain.size(), 1000u);
+  ASSERT_EQ(profiled.size(), plain.size());
+  for (std::size_t e = 0; e < plain.size(); ++e) {
+    ASSERT_EQ(profiled[e].time, plain[e].time) << "event " << e;
+    ASSERT_EQ(profiled[e].type, plain[e].type) << "event " << e;
+    ASSERT_EQ(profiled[e].a, plain[e].a) << "event " << e;
+    ASSERT_EQ(profiled[e].b, plain[e].b) << "event " << e;
+  }
+  const EventProfile& prof = sim.profile();
+  const RunStats& st = sim.stats();
+  std::int64_t events = 0, searches = 0;
+  for (int k = 0; k < EventProfile::kKinds; ++k) {
+    if (k != EventProfile::kStale) events += prof.kind[k].events;
+    searches += prof.kind[k].pair_searches;
+    EXPECT_GE(prof.kind[k].seconds, 0.0);
+  }
+  EXPECT_EQ(events, st.events);
+  EXPECT_EQ(prof.kind[EventProfile::kStale].events, st.stale);
+  EXPECT_EQ(prof.kind[EventProfile::kRelocation].events, st.cell_crossings);
+  EXPECT_EQ(prof.kind[EventProfile::kRelocation].predictions, st.cell_crossings);  // one body each
+  EXPECT_GT(prof.kind[EventProfile::kCollision].events, 0);
+  EXPECT_GT(prof.kind[EventProfile::kCollision].capture_searches, 0);
+  // Each bin holds the searches of its range of work, and they add up.
+  std::int64_t binned = 0;
+  for (int b = 0; b < EventProfile::kBins; ++b) {
+    const EventProfile::Bin& x = prof.bin[b];
+    binned += x.searches;
+    EXPECT_LE(x.contacts, x.searches);
+    if (b > 0 && x.searches > 0) EXPECT_GT(x.work, EventProfile::kWorkBins[b - 1] * x.searches) << "bin " << b;
+    if (b < EventProfile::kBins - 1) EXPECT_LE(x.work, EventProfile::kWorkBins[b] * x.searches) << "bin " << b;
+  }
+  EXPECT_EQ(binned, searches);
+  EXPECT_GT(searches, 1000);
+}
+
 // A thermal hard-sphere gas (no linkers, bonding off): the case where each
 // sphere keeps its earliest collision candidates (run.sphere_candidates).
 SimParams sphere_gas(int n, double packing, Boundary boundary, int candidates) {

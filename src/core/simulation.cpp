@@ -1,6 +1,7 @@
 #include "core/simulation.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <optional>
 #include <sstream>
@@ -270,6 +271,7 @@ struct Simulation::SphereFill {
 };
 
 void Simulation::predict_sphere(int i, double t, SphereScan scan, int dim, int dir) {
+  if (profiling_) ++profile_.kind[profile_kind_].predictions;
   if (scan != SphereScan::Full) {
     // Drop pairs whose partner has changed trajectory.
     SphereCandidate* list = sphere_list(i);
@@ -306,6 +308,7 @@ void Simulation::predict_sphere_pair(int i, int j, double t) {
     predict_sphere(j, t, SphereScan::Full);
     return;
   }
+  if (profiling_) profile_.kind[profile_kind_].predictions += 2;
   a.commit(*this);
   b.commit(*this);
   finish_sphere(i, t, SphereScan::Full, a.xi);
@@ -341,6 +344,7 @@ void Simulation::predict(int i, double t) {
   const int gi = bodies_.group[i];
   const int ci = bodies_.cgroup[i];
   const Vec3 xi = reference_center(bodies_, i, t);
+  if (profiling_) ++profile_.kind[profile_kind_].predictions;
   Event best;
   if (gi < 0 && ci < 0) {
     best = free_body_exit(i, t, xi);
@@ -443,6 +447,7 @@ void Simulation::predict(int i, double t) {
     if (limit <= t) continue;  // j is re-predicted at t and covers the pair
     for (int e = 0; e < 2; ++e) {
       if (graph_.end_bonded(l, e)) continue;
+      if (profiling_) ++profile_.kind[profile_kind_].capture_searches;
       const double tc = predictor_.capture(l, e, s, t, limit, bp.capture_distance);
       if (tc < best.time) {
         best.time = tc;
@@ -461,6 +466,23 @@ void Simulation::predict(int i, double t) {
   }
   events_[i] = best;
   queue_->update(i, best.time);
+}
+
+double Simulation::search_pair(int i, int j, double t, double limit, const Vec3& xi) {
+  if (!profiling_) return predictor_.pair(i, j, t, limit, xi);
+  const std::int64_t w0 = static_cast<std::int64_t>(predictor_.ca_iterations()) + predictor_.plane_evaluations();
+  const auto start = std::chrono::steady_clock::now();
+  const double tc = predictor_.pair(i, j, t, limit, xi);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const std::int64_t w = static_cast<std::int64_t>(predictor_.ca_iterations()) + predictor_.plane_evaluations() - w0;
+  const std::int64_t* edge = EventProfile::kWorkBins;
+  EventProfile::Bin& b = profile_.bin[std::lower_bound(edge, edge + EventProfile::kBins - 1, w) - edge];
+  ++b.searches;
+  b.work += w;
+  b.seconds += seconds;
+  if (tc < kNever) ++b.contacts;
+  ++profile_.kind[profile_kind_].pair_searches;
+  return tc;
 }
 
 double Simulation::memo_pair(int i, int j, double t, double limit, const Vec3& xi) {
@@ -484,11 +506,11 @@ double Simulation::memo_pair(int i, int j, double t, double limit, const Vec3& x
       out.until = m->until;  // proven free past the horizon
     } else {
       ++stats_.memo_resumed;
-      tc = predictor_.pair(i, j, std::max(t, m->until), limit, reference_center(bodies_, i, std::max(t, m->until)));
+      tc = search_pair(i, j, std::max(t, m->until), limit, reference_center(bodies_, i, std::max(t, m->until)));
       if (tc == kNever) out.until = predictor_.proven_until();
     }
   } else {
-    tc = predictor_.pair(i, j, t, limit, xi);
+    tc = search_pair(i, j, t, limit, xi);
     if (tc == kNever) out.until = predictor_.proven_until();
   }
   if (tc < kNever) {
@@ -783,10 +805,33 @@ bool Simulation::step() {
     return false;
   }
   now_ = ev.time;
+  // The profile's share of this event, taken when it ends (also by the early
+  // return of a stale one; with a validator, its check is included).
+  struct ProfileScope {
+    explicit ProfileScope(Simulation& s) : sim(s), start(std::chrono::steady_clock::now()) {}
+    ProfileScope(const ProfileScope&) = delete;
+    ProfileScope& operator=(const ProfileScope&) = delete;
+    Simulation& sim;
+    std::chrono::steady_clock::time_point start;
+    ~ProfileScope() {
+      EventProfile::PerKind& k = sim.profile_.kind[sim.profile_kind_];
+      ++k.events;
+      k.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+  };
+  std::optional<ProfileScope> profile_scope;
+  if (profiling_ && ev.type != EventType::None) {
+    profile_kind_ = ev.type == EventType::Wall        ? EventProfile::kWall
+                    : ev.type == EventType::CellCross ? EventProfile::kRelocation
+                    : ev.type == EventType::Slice     ? EventProfile::kSlice
+                                                      : EventProfile::kCollision;
+    profile_scope.emplace(*this);
+  }
   switch (ev.type) {
     case EventType::Collision:
     case EventType::Capture:
       if (bodies_.counter[ev.partner] != ev.partner_counter) {
+        profile_kind_ = EventProfile::kStale;
         ++stats_.stale;
         if (sphere_gas_) predict_sphere(i, ev.time, SphereScan::Stale);
         else predict(i, ev.time);

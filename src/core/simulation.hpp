@@ -86,6 +86,36 @@ struct RunStats {
   double lost_bursts = 0.0;          // contact bursts ending in rigid motion
 };
 
+// Where a run's time goes (ringsim replicate --profile; docs/OUTPUT.md,
+// "profile"): the work each kind of event caused, and the general path's pair
+// searches by their work. Only counted when enabled (Simulation::enable_profile),
+// and it changes nothing else: a profiled run has the same events.
+struct EventProfile {
+  // collision: a contact or capture that fired; stale: one discarded (its
+  // partner moved since; not in RunStats::events); wall; relocation: a cell
+  // crossing, a member's relocation or a re-check; slice: a compliant slice end.
+  enum Kind { kCollision, kStale, kWall, kRelocation, kSlice, kKinds };
+  static constexpr const char* kNames[kKinds] = {"collision", "stale", "wall", "relocation", "slice"};
+  struct PerKind {
+    std::int64_t events = 0;
+    std::int64_t predictions = 0;       // bodies predicted again
+    std::int64_t pair_searches = 0;     // contact searches run (not answered by the pair memo alone)
+    std::int64_t capture_searches = 0;  // capture searches (a linker end against a sphere)
+    double seconds = 0.0;               // wall time of these events, their predictions included
+  };
+  PerKind kind[kKinds];
+  // Pair searches by their work w (distance evaluations plus separating-plane
+  // evaluations): bin k holds kWorkBins[k - 1] < w <= kWorkBins[k] (bin 0: w = 0,
+  // the last: above 1 000).
+  static constexpr int kBins = 8;
+  static constexpr std::int64_t kWorkBins[kBins - 1] = {0, 3, 10, 30, 100, 300, 1000};
+  struct Bin {
+    std::int64_t searches = 0, contacts = 0, work = 0;
+    double seconds = 0.0;
+  };
+  Bin bin[kBins];
+};
+
 // Where the energy went, at the present time (docs/OUTPUT.md, "energy_budget"):
 // initial + bonds_in = kinetic + potential + the losses. Every term but
 // `dampers` is counted where it happens; `dampers` is the rest: the energy the
@@ -173,6 +203,10 @@ class Simulation {
   // Event log for tests comparing queue implementations: (time, kind, i, j).
   struct LoggedEvent { double time; EventType type; int a; int b; };
   void enable_log(bool on) { log_on_ = on; }
+  // Counts where the run's time goes (EventProfile) from the next event on;
+  // costs two clock reads per event and per pair search.
+  void enable_profile(bool on) { profiling_ = on; }
+  const EventProfile& profile() const { return profile_; }
   const std::vector<LoggedEvent>& log() const { return log_; }
 
  private:
@@ -336,6 +370,11 @@ class Simulation {
   Validator* validator_ = nullptr;
   ClusterObserver cluster_observer_;
   bool log_on_ = false;
+  bool profiling_ = false;
+  EventProfile profile_;
+  EventProfile::Kind profile_kind_ = EventProfile::kRelocation;  // of the event being processed
+  // predictor_.pair, timed and binned into profile_ when profiling.
+  double search_pair(int i, int j, double t, double limit, const Vec3& xi);
   std::vector<LoggedEvent> log_;
 };
 

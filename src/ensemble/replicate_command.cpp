@@ -58,6 +58,28 @@ void write_series(const Simulation& sim, const std::string& path) {
   if (!out) throw std::runtime_error("could not write series file " + path + " (disk full?)");
 }
 
+nlohmann::json profile_json(const EventProfile& p) {
+  nlohmann::json by_event = nlohmann::json::object();
+  for (int k = 0; k < EventProfile::kKinds; ++k) {
+    const EventProfile::PerKind& e = p.kind[k];
+    by_event[EventProfile::kNames[k]] = {{"events", e.events},
+                                         {"predictions", e.predictions},
+                                         {"pair_searches", e.pair_searches},
+                                         {"capture_searches", e.capture_searches},
+                                         {"seconds", e.seconds}};
+  }
+  nlohmann::json bins = nlohmann::json::array();
+  for (int b = 0; b < EventProfile::kBins; ++b) {
+    const EventProfile::Bin& x = p.bin[b];
+    bins.push_back({{"max_work", b < EventProfile::kBins - 1 ? nlohmann::json(EventProfile::kWorkBins[b]) : nlohmann::json(nullptr)},
+                    {"searches", x.searches},
+                    {"contacts", x.contacts},
+                    {"work", x.work},
+                    {"seconds", x.seconds}});
+  }
+  return {{"by_event", by_event}, {"pair_searches_by_work", bins}};
+}
+
 }  // namespace
 
 nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::uint64_t replicate,
@@ -72,6 +94,7 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
     sim.set_validator(validator.get());
   }
   sim.set_stop_flag(io.stop);
+  sim.enable_profile(io.profile);
   const Termination term = sim.run();
   if (!io.snapshot_path.empty()) write_snapshot(sim, params, seed, replicate, io.snapshot_path);
   if (!io.series_path.empty()) write_series(sim, io.series_path);
@@ -154,6 +177,7 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
     const MserResult& m = sim.monitor().result();
     j["mser"] = {{"truncation", m.truncation}, {"batches", m.batches}, {"samples", sim.monitor().samples().size()}};
   }
+  if (io.profile) j["profile"] = profile_json(sim.profile());
   if (validator) {
     const ValidationReport& r = validator->report();
     j["validation"] = {{"checks", r.checks},
@@ -223,6 +247,7 @@ void add_replicate_command(CLI::App& app, ReplicateOptions& opt) {
       "  ringsim replicate jobs/scenarios/4-passive-selection.toml --seed 3 --snapshot final.xyz\n"
       "      then: /usr/bin/python3 scripts/render_snapshot.py final.xyz -o final.png\n"
       "  ringsim replicate --seed 2 --series nt.txt && ringsim mser nt.txt   steady-state analysis of N_t(t)\n"
+      "  ringsim replicate jobs/scenarios/4-passive-selection.toml --seed 1 --json --profile   where the time goes\n"
       "Configuration keys and ranges: docs/CONFIG.md (or `ringsim keys`).\n"
       "Exit codes: 0 done; 1 configuration or command-line error (also an unusable --snapshot or --series\n"
       "path, checked before the run); 2 the scene cannot be built (e.g. too many bodies for the box);\n"
@@ -247,6 +272,10 @@ void add_replicate_command(CLI::App& app, ReplicateOptions& opt) {
   cmd->add_option("--series", opt.series,
                   "Write the sampled N_t(t) series (one value per line, every run.sample_interval from t = 0) to "
                   "FILE; inspect it with `ringsim mser FILE`");
+  cmd->add_flag("--profile", opt.profile,
+                "Also report where the time went: per kind of event (collision, stale, wall, relocation, slice) its "
+                "events, predictions, pair and capture searches and wall seconds, and the pair searches binned by "
+                "their work (docs/OUTPUT.md, \"profile\"); the events are the same, the run 2-5 % slower");
 }
 
 int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
@@ -257,14 +286,14 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
   // writes after the run still report their own failures.
   if (!opt.snapshot.empty()) check_output_path(opt.snapshot, "--snapshot");
   if (!opt.series.empty()) check_output_path(opt.series, "--series");
-  const nlohmann::json j = run_replicate(params, opt.seed, opt.replicate, ReplicateIo{opt.snapshot, opt.series});
+  const nlohmann::json j = run_replicate(params, opt.seed, opt.replicate, ReplicateIo{opt.snapshot, opt.series, nullptr, nullptr, opt.profile});
   if (opt.json) {
     out << j.dump() << '\n';
   } else {
     char line[160];
     auto row = [&](const char* k, const std::string& v) {
-      std::snprintf(line, sizeof line, "  %-22s %s\n", k, v.c_str());
-      out << line;
+      std::snprintf(line, sizeof line, "  %-22s ", k);
+      out << line << v << '\n';  // (v may be longer than the buffer: the energy budget is)
     };
     out << "ringsim replicate (" << kVersion << ")\n";
     out << "observables (final time; fractions, not percent)\n";
@@ -279,6 +308,27 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
       row(k, j[k].dump());
     if (j.contains("compliant")) row("compliant", j["compliant"].dump());
     if (j.contains("validation")) row("validation", j["validation"].dump());
+    if (j.contains("profile")) {
+      out << "profile (per kind of event: events, predictions, pair searches, capture searches, seconds)\n";
+      for (const char* kind : EventProfile::kNames) {
+        const nlohmann::json& v = j["profile"]["by_event"][kind];
+        std::snprintf(line, sizeof line, "  %-22s %10lld %10lld %11lld %11lld %9.3f\n", kind,
+                      v["events"].get<long long>(), v["predictions"].get<long long>(), v["pair_searches"].get<long long>(),
+                      v["capture_searches"].get<long long>(), v["seconds"].get<double>());
+        out << line;
+      }
+      out << "pair searches by work (distance + plane evaluations: searches, contacts found, seconds)\n";
+      long long lo = 0;
+      for (const auto& b : j["profile"]["pair_searches_by_work"]) {
+        const std::string range = b["max_work"].is_null() ? "> " + std::to_string(lo)
+                                                           : (b["max_work"].get<long long>() == 0 ? std::string("0")
+                                                                  : std::to_string(lo + 1) + "-" + std::to_string(b["max_work"].get<long long>()));
+        std::snprintf(line, sizeof line, "  %-22s %10lld %10lld %9.3f\n", range.c_str(), b["searches"].get<long long>(),
+                      b["contacts"].get<long long>(), b["seconds"].get<double>());
+        out << line;
+        if (!b["max_work"].is_null()) lo = b["max_work"].get<long long>();
+      }
+    }
     if (j.contains("error")) row("error", j["error"].get<std::string>());
   }
   return j["termination"] == "error" ? 3 : 0;

@@ -28,6 +28,7 @@ struct ReplicateOptions {
   bool validate = false;              // same as --set run.validate=true
   std::string snapshot;               // final configuration: .xyz (extended XYZ) or .vtk; empty: none
   std::string series;                 // sampled N_t(t), one value per line (for `ringsim mser`); empty: none
+  bool profile = false;               // add where the time went (core EventProfile) to the output
 };
 
 // Optional inputs and outputs of one replicate beyond its JSON result.
@@ -36,6 +37,7 @@ struct ReplicateIo {
   std::string series_path;    // N_t samples, one per line (for `ringsim mser`); empty: none
   std::vector<double>* series = nullptr;    // receives the same N_t samples
   const std::atomic<bool>* stop = nullptr;  // ends the run as "interrupted" when it turns true
+  bool profile = false;  // add "profile" (core EventProfile, docs/OUTPUT.md) to the result
 };
 
 // Runs one replicate with the given settings and returns the result object
