@@ -749,5 +749,69 @@ TEST(Determinism, SameSeedSameObservables) {
   EXPECT_EQ(once(), once());
 }
 
+// The cone start (Predictor::cone_enter): two points dx apart, moving apart
+// at dv, each straying from its line by at most K tau in all, first come
+// within B when |dx + dv tau| = B + K tau (hand-solved cases).
+TEST(ConeWindow, ReachSolvesTheHandCases) {
+  const Vec3 dx(10.0, 0.0, 0.0);
+  EXPECT_NEAR(detail::cone_reach(dx, Vec3(-1.0, 0.0, 0.0), 2.0, 0.0), 8.0, 1e-9);  // 10 - tau = 2
+  EXPECT_NEAR(detail::cone_reach(dx, Vec3(-1.0, 0.0, 0.0), 2.0, 1.0), 4.0, 1e-9);  // 10 - tau = 2 + tau
+  EXPECT_NEAR(detail::cone_reach(dx, Vec3::Zero(), 2.0, 1.0), 8.0, 1e-9);          // 10 = 2 + tau
+  EXPECT_NEAR(detail::cone_reach(dx, Vec3(1.0, 0.0, 0.0), 2.0, 2.0), 8.0, 1e-9);   // 10 + tau = 2 + 2 tau
+  EXPECT_EQ(detail::cone_reach(dx, Vec3(1.0, 0.0, 0.0), 2.0, 0.5), kNever);        // receding faster
+  EXPECT_EQ(detail::cone_reach(dx, Vec3(0.0, 1.0, 0.0), 2.0, 0.0), kNever);        // passing wide
+  EXPECT_EQ(detail::cone_reach(Vec3(1.0, 0.0, 0.0), Vec3(1.0, 0.0, 0.0), 2.0, 0.0), 0.0);  // within B now
+  // Passing by at the distance b: |dx + dv tau|^2 = b^2 + (d0 - tau)^2 meets (B + K tau)^2.
+  const double b = 1.0, d0 = 10.0, B = 2.0, K = 0.25;
+  const double tau = detail::cone_reach(Vec3(d0, b, 0.0), Vec3(-1.0, 0.0, 0.0), B, K);
+  EXPECT_NEAR(std::hypot(b, d0 - tau), B + K * tau, 1e-9);
+}
+
+// A free sphere coming at a turning cluster's end sphere (a sphere-linker-
+// sphere chain, turning about its middle): before cone_enter the centres
+// never come within the bounding radii (sampled finely), the first time
+// they do is after it, and the start is later than the window of the
+// sphere the member sweeps round the cluster's centre. Without the turning
+// term (K = 0) the bound would be wrong: the member turns towards the
+// sphere and meets it sooner.
+TEST(ConeWindow, NoMemberComesCloserBeforeItsConeStart) {
+  SimParams p = bonding_params();
+  const Species S = make_species(Shape::Sphere, p), L = make_species(Shape::Linker, p);
+  const double bond = L.half_length + S.radius + 0.05;
+  const Vec3 c(20.0, 20.0, 20.0), w(0.0, 0.0, 0.2);
+  std::vector<Init> init = {
+      {Shape::Sphere, c + Vec3(bond, 0.0, 0.0), kZero, Vec3::UnitZ(), w},                     // 0: member
+      {Shape::Sphere, c - Vec3(bond, 0.0, 0.0), kZero, Vec3::UnitZ(), w},                     // 1: member
+      {Shape::Sphere, c + Vec3(bond, 12.0, 0.0), Vec3(0.0, -1.0, 0.0), Vec3::UnitZ(), kZero},  // 2: free, coming
+      {Shape::Linker, c, kZero, Vec3::UnitX(), w},                                             // 3: member
+  };
+  BodyStore b = make_bodies(p, init);
+  b.free_all();
+  const Box box{40.0, false};
+  merge_groups(b, box, 0, 3, 0.0);
+  merge_groups(b, box, 1, 3, 0.0);
+  ASSERT_EQ(b.group[0], b.group[1]);
+  Predictor pred(b, box, p.run.contact_tolerance);
+  const double te = pred.cone_enter(0, body_center(b, 0, 0.0), 2, 0.0);
+  const double window = pred.window_enter(pred.window_self(0, reference_center(b, 0, 0.0)), 2, 0.0);
+  ASSERT_LT(te, kNever);
+  EXPECT_GT(te, window + 0.5) << "the cone should start well after the sweep sphere's window";
+  const double B = 2.0 * S.bounding_radius;
+  auto centres = [&](double s) { return (body_center(b, 2, s) - body_center(b, 0, s)).norm(); };
+  for (int k = 0; k <= 4000; ++k) {
+    const double s = te * k / 4000.0;
+    ASSERT_GT(centres(s), B) << "s " << s << " before the cone start " << te;
+  }
+  double first = te;
+  while (centres(first) > B && first < te + 50.0) first += 1e-4;
+  ASSERT_LT(first, te + 50.0) << "the centres never came within B: the case tests nothing";
+  EXPECT_GE(first, te);
+  // The same bound without the cluster's turning overshoots the first approach.
+  const Vec3 dx = body_center(b, 2, 0.0) - body_center(b, 0, 0.0);
+  const Vec3 dv = reference_velocity(b, 2) - reference_velocity(b, 0);
+  EXPECT_GT(detail::cone_reach(dx, dv, B + p.run.contact_tolerance, 0.0), first);
+  std::printf("cone start %.4f, sweep window %.4f, first approach %.4f, rate %.4f\n", te, window, first,
+              b.clusters[b.group[0]].max_rate);
+}
 }  // namespace
 }  // namespace ringsim

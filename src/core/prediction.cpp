@@ -147,6 +147,16 @@ double Predictor::window_enter(const WindowSelf& self, int j, double t) const {
   return t + (back.before(enter) ? back.time() : enter);
 }
 
+double Predictor::cone_enter(int i, const Vec3& ci, int j, double t) const {
+  if (b_.cgroup[i] >= 0 || b_.cgroup[j] >= 0) return t;
+  if (box_.periodic && reference_radius(b_, i) + reference_radius(b_, j) + delta_ > image_safe_radius_) return t;
+  const Vec3 dx = box_.min_image(body_center(b_, j, t) - ci);
+  const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
+  const double B = b_.sp(i).bounding_radius + b_.sp(j).bounding_radius + delta_;
+  const double K = point_rotation_bound(b_, i, 0.0) + point_rotation_bound(b_, j, 0.0);
+  return t + detail::cone_reach(dx, dv, B, K);
+}
+
 double Predictor::pair(int i, int j, double t, double limit, const Vec3& xi) {
   const bool generic = in_cluster(b_, i) || in_cluster(b_, j);
   if (!generic && b_.shape[i] == Shape::Sphere && b_.shape[j] == Shape::Sphere) {

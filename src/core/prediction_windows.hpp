@@ -226,6 +226,28 @@ double concave_reach(const F& f, double level, double tau0, double tau_max, long
   return good;
 }
 
+// First tau >= 0 at which |dx + dv tau| <= B + K tau can hold (kNever if
+// never): two points whose separation is dx now, moving apart at dv, each
+// free to stray from its straight line by at most K tau in all (K: the sum of
+// their speeds about their reference points), cannot come within B sooner.
+// A lower bound: B is widened by 1e-12 relative and tau shortened as much.
+inline double cone_reach(const Vec3& dx, const Vec3& dv, double B, double K) {
+  B *= 1.0 + 1e-12;
+  const double c = dx.squaredNorm() - B * B;
+  if (c <= 0.0) return 0.0;
+  // |dx + dv tau|^2 - (B + K tau)^2 = a tau^2 + 2 bq tau + c, c > 0: its first root.
+  const double a = dv.squaredNorm() - K * K, bq = dx.dot(dv) - B * K;
+  double tau;
+  if (a < 0.0) {
+    tau = c / (std::sqrt(bq * bq - a * c) - bq);  // the positive root (the roots' product c / a < 0)
+  } else {
+    const double disc = bq * bq - a * c;
+    if (bq >= 0.0 || disc < 0.0) return kNever;  // (a = 0: the linear case, the same formula)
+    tau = c / (std::sqrt(disc) - bq);
+  }
+  return tau * (1.0 - 1e-12);
+}
+
 // Largest tau >= 0 with a + b tau - c tau^2 >= level (c >= 0, a >= level): the
 // larger root of the concave quadratic, in the form without cancellation.
 inline double quadratic_reach(double a, double b, double c, double level) {

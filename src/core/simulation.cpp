@@ -410,6 +410,7 @@ void Simulation::predict(int i, double t) {
   const bool bonding = params_.bonding.enabled;
   capture_partners_.clear();
   const Predictor::WindowSelf window_self = predictor_.window_self(i, xi);
+  const Vec3 centre_i = gi >= 0 ? body_center(bodies_, i, t) : xi;
   grid_.for_each_near(grid_.cell_of_body(i), [&](int j) {
     if (j == i) return;
     if (gi >= 0 && bodies_.group[j] == gi) return;  // one rigid body: no relative motion
@@ -426,15 +427,28 @@ void Simulation::predict(int i, double t) {
       consider(j, ej.time);
       return;
     }
-    const double enter = predictor_.window_enter(window_self, j, t);
-    if (enter < pair_limit(j)) candidates_.push_back({enter, j});
+    double enter = predictor_.window_enter(window_self, j, t);
+    if (!(enter < pair_limit(j))) return;
+    // A rigid member's centre strays from its cluster's straight line no
+    // faster than the cluster turns: often a later start than the sphere it
+    // sweeps round the cluster's centre (Predictor::cone_enter).
+    bool cone = false;
+    if (gi >= 0 || bodies_.group[j] >= 0) {
+      const double c = predictor_.cone_enter(i, centre_i, j, t);
+      if (c > enter) {
+        enter = c;
+        cone = true;
+        if (!(enter < pair_limit(j))) return;
+      }
+    }
+    candidates_.push_back({enter, j, cone});
   });
   std::sort(candidates_.begin(), candidates_.end());
   memo_scratch_.clear();
-  for (const auto& [enter, j] : candidates_) {
-    if (enter >= best.time) break;
-    const double limit = bounded_limit(j);
-    if (enter < limit) consider(j, memo_pair(i, j, t, limit, xi));
+  for (const Candidate& c : candidates_) {
+    if (c.enter >= best.time) break;
+    const double limit = bounded_limit(c.j);
+    if (c.enter < limit) consider(c.j, memo_pair(i, c.j, t, limit, xi, c.cone ? c.enter : t));
   }
   memo_[i].swap(memo_scratch_);
   // Captures: only pairs that could still bond (a free end, a sphere with a
@@ -485,7 +499,7 @@ double Simulation::search_pair(int i, int j, double t, double limit, const Vec3&
   return tc;
 }
 
-double Simulation::memo_pair(int i, int j, double t, double limit, const Vec3& xi) {
+double Simulation::memo_pair(int i, int j, double t, double limit, const Vec3& xi, double start) {
   const std::uint32_t ci = bodies_.counter[i], cj = bodies_.counter[j];
   const PairMemo* m = nullptr;
   for (const PairMemo& e : memo_[i])
@@ -506,11 +520,12 @@ double Simulation::memo_pair(int i, int j, double t, double limit, const Vec3& x
       out.until = m->until;  // proven free past the horizon
     } else {
       ++stats_.memo_resumed;
-      tc = search_pair(i, j, std::max(t, m->until), limit, reference_center(bodies_, i, std::max(t, m->until)));
+      const double from = std::max({t, m->until, start});
+      tc = search_pair(i, j, from, limit, reference_center(bodies_, i, from));
       if (tc == kNever) out.until = predictor_.proven_until();
     }
   } else {
-    tc = search_pair(i, j, t, limit, xi);
+    tc = start > t ? search_pair(i, j, start, limit, reference_center(bodies_, i, start)) : search_pair(i, j, t, limit, xi);
     if (tc == kNever) out.until = predictor_.proven_until();
   }
   if (tc < kNever) {

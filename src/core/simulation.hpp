@@ -321,7 +321,15 @@ class Simulation {
   SteadyStateMonitor monitor_;
   const std::atomic<bool>* stop_flag_ = nullptr;
   std::vector<int> capture_partners_;  // scratch of predict()
-  std::vector<std::pair<double, int>> candidates_;  // scratch of predict()
+  // A pair to search, from its window's entry (cone: from the cone's, a
+  // proven start of the search); in order of entry, then partner.
+  struct Candidate {
+    double enter;
+    int j;
+    bool cone;
+    bool operator<(const Candidate& o) const { return enter < o.enter || (enter == o.enter && j < o.j); }
+  };
+  std::vector<Candidate> candidates_;  // scratch of predict()
   // Pair-search memo. A search of pair (i, j) from `from` with horizon
   // `until` either proved no contact in [from, until) (hit false) or found the
   // first contact at `until` (hit true). While neither body's trajectory has
@@ -334,7 +342,9 @@ class Simulation {
     double from, until;
     bool hit;
   };
-  double memo_pair(int i, int j, double t, double limit, const Vec3& xi);
+  // start >= t: the pair cannot touch before it (a fresh or resumed search
+  // begins there; the memo still records the proof from t).
+  double memo_pair(int i, int j, double t, double limit, const Vec3& xi, double start);
   // Wall-search memo of a body (the same proof, for its walls): a search from
   // `from` either proved no wall contact before `until` or found the first at
   // hit.time. Valid while the body's counter is unchanged; a cell crossing or
