@@ -609,6 +609,15 @@ TEST(ValidationWithBonds, Scenario6HighDensityNoOverlapsConservation) {
   validation_run(p, 27, 3000, 1);
 }
 
+// Scenario 4 in the periodic box of 50: windows of radius up to ~9.4 are
+// image-safe there, so pairs with a cluster's member start at their cone
+// (Predictor::cone_enter, on the window's image); no overlap may follow.
+TEST(ValidationWithBonds, PeriodicScenario4ConeStartsNoOverlap) {
+  SimParams p = scenario_params(true, true);
+  p.geometry.boundary = Boundary::Periodic;
+  validation_run(p, 31, 12000, 20);
+}
+
 TEST(ValidationWithBonds, PeriodicBoxClustersAcrossTheBoundary) {
   // Scenario 1 in a periodic box of 30: 150 + 150 bodies, clusters cross the
   // boundary. Momentum only (periodic images break angular momentum).

@@ -143,7 +143,8 @@ class Predictor {
   // prediction_windows.hpp), and each solid lies within its bounding radius
   // of its centre. Much later than window_enter for members far from their
   // cluster's centre that turn slowly. t (no bound) for compliant members,
-  // and in a periodic box whose windows are not image-safe.
+  // and in a periodic box whose windows are not image-safe; there, on the
+  // window's image.
   double cone_enter(int i, const Vec3& ci, int j, double t) const;
   // Windows of radius at most this need no look at other periodic images in
   // window_enter: the caller's limits keep the relative motion in a search

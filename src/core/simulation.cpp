@@ -525,7 +525,8 @@ double Simulation::memo_pair(int i, int j, double t, double limit, const Vec3& x
       if (tc == kNever) out.until = predictor_.proven_until();
     }
   } else {
-    tc = start > t ? search_pair(i, j, start, limit, reference_center(bodies_, i, start)) : search_pair(i, j, t, limit, xi);
+    const double from = std::max(t, start);
+    tc = search_pair(i, j, from, limit, from > t ? reference_center(bodies_, i, from) : xi);
     if (tc == kNever) out.until = predictor_.proven_until();
   }
   if (tc < kNever) {
