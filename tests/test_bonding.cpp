@@ -801,8 +801,9 @@ TEST(ConeWindow, NoMemberComesCloserBeforeItsConeStart) {
   merge_groups(b, box, 1, 3, 0.0);
   ASSERT_EQ(b.group[0], b.group[1]);
   Predictor pred(b, box, p.run.contact_tolerance);
-  const double te = pred.cone_enter(0, body_center(b, 0, 0.0), 2, 0.0);
-  const double window = pred.window_enter(pred.window_self(0, reference_center(b, 0, 0.0)), 2, 0.0);
+  const Predictor::WindowSelf self = pred.window_self(0, reference_center(b, 0, 0.0));
+  const double te = pred.cone_enter(0, self, body_center(b, 0, 0.0), 2, 0.0);
+  const double window = pred.window_enter(self, 2, 0.0);
   ASSERT_LT(te, kNever);
   EXPECT_GT(te, window + 0.5) << "the cone should start well after the sweep sphere's window";
   const double B = 2.0 * S.bounding_radius;

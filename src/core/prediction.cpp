@@ -147,9 +147,9 @@ double Predictor::window_enter(const WindowSelf& self, int j, double t) const {
   return t + (back.before(enter) ? back.time() : enter);
 }
 
-double Predictor::cone_enter(int i, const Vec3& ci, int j, double t) const {
+double Predictor::cone_enter(int i, const WindowSelf& self, const Vec3& ci, int j, double t) const {
   if (b_.cgroup[i] >= 0 || b_.cgroup[j] >= 0) return t;
-  if (box_.periodic && reference_radius(b_, i) + reference_radius(b_, j) + delta_ > image_safe_radius_) return t;
+  if (box_.periodic && self.radius + reference_radius(b_, j) + delta_ > image_safe_radius_) return t;
   const Vec3 cj = body_center(b_, j, t);
   Vec3 dx = cj - ci;
   if (box_.periodic) {
@@ -157,10 +157,10 @@ double Predictor::cone_enter(int i, const Vec3& ci, int j, double t) const {
     // minimum image), the only one that can come within range in the
     // search; the centres' own minimum image may be another when the
     // members lie far out on their clusters.
-    const Vec3 ri = reference_center(b_, i, t), rj = reference_center(b_, j, t);
-    dx = box_.min_image(rj - ri) + (cj - rj) - (ci - ri);
+    const Vec3 rj = reference_center(b_, j, t);
+    dx = box_.min_image(rj - self.x) + (cj - rj) - (ci - self.x);
   }
-  const Vec3 dv = reference_velocity(b_, j) - reference_velocity(b_, i);
+  const Vec3 dv = reference_velocity(b_, j) - self.v;
   const double B = b_.sp(i).bounding_radius + b_.sp(j).bounding_radius + delta_;
   const double K = point_rotation_bound(b_, i, 0.0) + point_rotation_bound(b_, j, 0.0);
   return t + detail::cone_reach(dx, dv, B, K);

@@ -137,7 +137,7 @@ class Predictor {
   WindowSelf window_self(int i, const Vec3& xi) const;
   double window_enter(const WindowSelf& self, int j, double t) const;
   // Earliest time >= t at which i and j can touch judged by their centres
-  // alone (ci: i's centre at t): each centre moves with its reference point
+  // alone (self: window_self(i, .) at t; ci: i's centre at t): each centre moves with its reference point
   // (a rigid member: its cluster's centre of mass) and strays from that
   // straight line at most at point_rotation_bound(., 0) (cone_reach in
   // prediction_windows.hpp), and each solid lies within its bounding radius
@@ -145,7 +145,7 @@ class Predictor {
   // cluster's centre that turn slowly. t (no bound) for compliant members,
   // and in a periodic box whose windows are not image-safe; there, on the
   // window's image.
-  double cone_enter(int i, const Vec3& ci, int j, double t) const;
+  double cone_enter(int i, const WindowSelf& self, const Vec3& ci, int j, double t) const;
   // Windows of radius at most this need no look at other periodic images in
   // window_enter: the caller's limits keep the relative motion in a search
   // shorter than the way to another image (Simulation, with the partner

@@ -410,7 +410,7 @@ void Simulation::predict(int i, double t) {
   const bool bonding = params_.bonding.enabled;
   capture_partners_.clear();
   const Predictor::WindowSelf window_self = predictor_.window_self(i, xi);
-  const Vec3 centre_i = gi >= 0 ? body_center(bodies_, i, t) : xi;
+  const Vec3 centre_i = in_cluster(bodies_, i) ? body_center(bodies_, i, t) : xi;  // (xi: a member's cluster)
   grid_.for_each_near(grid_.cell_of_body(i), [&](int j) {
     if (j == i) return;
     if (gi >= 0 && bodies_.group[j] == gi) return;  // one rigid body: no relative motion
@@ -434,7 +434,7 @@ void Simulation::predict(int i, double t) {
     // sweeps round the cluster's centre (Predictor::cone_enter).
     bool cone = false;
     if (gi >= 0 || bodies_.group[j] >= 0) {
-      const double c = predictor_.cone_enter(i, centre_i, j, t);
+      const double c = predictor_.cone_enter(i, window_self, centre_i, j, t);
       if (c > enter) {
         enter = c;
         cone = true;

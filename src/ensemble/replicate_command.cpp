@@ -58,6 +58,14 @@ void write_series(const Simulation& sim, const std::string& path) {
   if (!out) throw std::runtime_error("could not write series file " + path + " (disk full?)");
 }
 
+// Bin k of the profile's pair-search work: "0", "1-3", ..., "> 1000".
+std::string work_bin_label(int k) {
+  const std::int64_t* edge = EventProfile::kWorkBins;
+  if (k == 0) return "0";
+  if (k == EventProfile::kBins - 1) return "> " + std::to_string(edge[k - 1]);
+  return std::to_string(edge[k - 1] + 1) + "-" + std::to_string(edge[k]);
+}
+
 nlohmann::json profile_json(const EventProfile& p) {
   nlohmann::json by_event = nlohmann::json::object();
   for (int k = 0; k < EventProfile::kKinds; ++k) {
@@ -318,15 +326,11 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
         out << line;
       }
       out << "pair searches by work (distance + plane evaluations: searches, contacts found, seconds)\n";
-      long long lo = 0;
-      for (const auto& b : j["profile"]["pair_searches_by_work"]) {
-        const std::string range = b["max_work"].is_null() ? "> " + std::to_string(lo)
-                                                           : (b["max_work"].get<long long>() == 0 ? std::string("0")
-                                                                  : std::to_string(lo + 1) + "-" + std::to_string(b["max_work"].get<long long>()));
-        std::snprintf(line, sizeof line, "  %-22s %10lld %10lld %9.3f\n", range.c_str(), b["searches"].get<long long>(),
-                      b["contacts"].get<long long>(), b["seconds"].get<double>());
+      for (int k = 0; k < EventProfile::kBins; ++k) {
+        const nlohmann::json& b = j["profile"]["pair_searches_by_work"][k];
+        std::snprintf(line, sizeof line, "  %-22s %10lld %10lld %9.3f\n", work_bin_label(k).c_str(),
+                      b["searches"].get<long long>(), b["contacts"].get<long long>(), b["seconds"].get<double>());
         out << line;
-        if (!b["max_work"].is_null()) lo = b["max_work"].get<long long>();
       }
     }
     if (j.contains("error")) row("error", j["error"].get<std::string>());
