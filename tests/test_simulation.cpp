@@ -177,6 +177,7 @@ TEST(Profile, CountsEveryEventAndSearchAndChangesNoEvent) {
   Simulation sim(p, build_scene(p, 5, 0, nullptr));
   sim.enable_log(true);
   sim.enable_profile(true);
+  const Predictor::SearchCounts before = sim.predictor_counts();  // the constructor's first predictions
   sim.run();
   const auto& profiled = sim.log();
   ASSERT_GT(plain.size(), 1000u);
@@ -202,16 +203,29 @@ TEST(Profile, CountsEveryEventAndSearchAndChangesNoEvent) {
   EXPECT_GT(prof.kind[EventProfile::kCollision].events, 0);
   EXPECT_GT(prof.kind[EventProfile::kCollision].capture_searches, 0);
   // Each bin holds the searches of its range of work, and they add up.
-  std::int64_t binned = 0;
+  std::int64_t binned = 0, capsule = 0, found = 0;
   for (int b = 0; b < EventProfile::kBins; ++b) {
-    const EventProfile::Bin& x = prof.bin[b];
+    const EventProfile::Work& x = prof.bin[b].all;
+    const EventProfile::Work& f = prof.bin[b].found;
     binned += x.searches;
-    EXPECT_LE(x.contacts, x.searches);
+    found += f.searches;
+    EXPECT_LE(f.searches, x.searches);
+    EXPECT_LE(f.seconds, x.seconds);
+    EXPECT_LE(f.exact_distances, x.exact_distances);
     if (b > 0 && x.searches > 0) EXPECT_GT(x.work, EventProfile::kWorkBins[b - 1] * x.searches) << "bin " << b;
     if (b < EventProfile::kBins - 1) EXPECT_LE(x.work, EventProfile::kWorkBins[b] * x.searches) << "bin " << b;
+    // A contact fires only at an exact distance, never from a capsule bound.
+    EXPECT_GE(f.exact_distances, f.searches) << "bin " << b;
+    capsule += x.work - x.plane_evaluations - x.exact_distances;
   }
   EXPECT_EQ(binned, searches);
   EXPECT_GT(searches, 1000);
+  EXPECT_GT(found, 0);
+  // Capsule steps are taken only by pair searches: the bins hold all those of the run.
+  const Predictor::SearchCounts& sc = sim.predictor_counts();
+  const auto run_capsule = sc.pair_capsule + sc.cluster_pair_capsule - before.pair_capsule - before.cluster_pair_capsule;
+  EXPECT_GT(run_capsule, 0u);
+  EXPECT_EQ(capsule, static_cast<std::int64_t>(run_capsule));
 }
 
 // A thermal hard-sphere gas (no linkers, bonding off): the case where each

@@ -271,6 +271,7 @@ double Predictor::advance_pair(int i, int j, double t, double limit) {
     // (every step below is certified by a lower bound along some unit normal;
     // the feature normals of the capsules' points are just fewer candidates).
     const ContactGeometry g = bound_geometry(i, j, s, capsule_far());
+    if (!g.exact) ++counts_.pair_capsule;
     const double d = g.sep.distance;
     if (d <= delta_ && approach_rate(i, j, s, g) < 0.0) return s;
     if (d <= 0.0) {

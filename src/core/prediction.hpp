@@ -210,6 +210,7 @@ class Predictor {
     std::uint64_t capture = 0, cluster_pair = 0, cluster_wall = 0, cell = 0;  // evaluations
     std::uint64_t capture_searches = 0, cluster_pair_searches = 0;             // searches started
     std::uint64_t cluster_pair_capsule = 0;  // cluster_pair steps taken from the capsule bound
+    std::uint64_t pair_capsule = 0;          // free pairs' steps taken from the capsule bound
   };
   const SearchCounts& search_counts() const { return counts_; }
   long plane_evaluations() const { return plane_evaluations_; }

@@ -484,17 +484,29 @@ void Simulation::predict(int i, double t) {
 
 double Simulation::search_pair(int i, int j, double t, double limit, const Vec3& xi) {
   if (!profiling_) return predictor_.pair(i, j, t, limit, xi);
-  const std::int64_t w0 = static_cast<std::int64_t>(predictor_.ca_iterations()) + predictor_.plane_evaluations();
+  auto capsule_steps = [&] {
+    const Predictor::SearchCounts& c = predictor_.search_counts();
+    return static_cast<std::int64_t>(c.pair_capsule + c.cluster_pair_capsule);
+  };
+  const std::int64_t steps0 = static_cast<std::int64_t>(predictor_.ca_iterations());
+  const std::int64_t planes0 = predictor_.plane_evaluations(), capsule0 = capsule_steps();
   const auto start = std::chrono::steady_clock::now();
   const double tc = predictor_.pair(i, j, t, limit, xi);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const std::int64_t w = static_cast<std::int64_t>(predictor_.ca_iterations()) + predictor_.plane_evaluations() - w0;
+  const std::int64_t steps = static_cast<std::int64_t>(predictor_.ca_iterations()) - steps0;
+  const std::int64_t planes = predictor_.plane_evaluations() - planes0;
+  const std::int64_t w = steps + planes;
   const std::int64_t* edge = EventProfile::kWorkBins;
   EventProfile::Bin& b = profile_.bin[std::lower_bound(edge, edge + EventProfile::kBins - 1, w) - edge];
-  ++b.searches;
-  b.work += w;
-  b.seconds += seconds;
-  if (tc < kNever) ++b.contacts;
+  auto add = [&](EventProfile::Work& x) {
+    ++x.searches;
+    x.work += w;
+    x.exact_distances += steps - (capsule_steps() - capsule0);
+    x.plane_evaluations += planes;
+    x.seconds += seconds;
+  };
+  add(b.all);
+  if (tc < kNever) add(b.found);
   ++profile_.kind[profile_kind_].pair_searches;
   return tc;
 }

@@ -106,12 +106,19 @@ struct EventProfile {
   PerKind kind[kKinds];
   // Pair searches by their work w (distance evaluations plus separating-plane
   // evaluations): bin k holds kWorkBins[k - 1] < w <= kWorkBins[k] (bin 0: w = 0,
-  // the last: above 1 000).
+  // the last: above 1 000). `found` sums the searches that found a contact
+  // (found.searches: their number), `all` every search of the bin.
   static constexpr int kBins = 8;
   static constexpr std::int64_t kWorkBins[kBins - 1] = {0, 3, 10, 30, 100, 300, 1000};
-  struct Bin {
-    std::int64_t searches = 0, contacts = 0, work = 0;
+  struct Work {
+    std::int64_t searches = 0;
+    std::int64_t work = 0;
+    std::int64_t exact_distances = 0;  // steps from the exact distance (not a capsule bound)
+    std::int64_t plane_evaluations = 0;
     double seconds = 0.0;
+  };
+  struct Bin {
+    Work all, found;
   };
   Bin bin[kBins];
 };

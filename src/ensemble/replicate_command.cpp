@@ -66,6 +66,17 @@ std::string work_bin_label(int k) {
   return std::to_string(edge[k - 1] + 1) + "-" + std::to_string(edge[k]);
 }
 
+// One half of a row of the profile's work table: searches, seconds, and
+// exact distances and plane evaluations per search.
+std::string work_cells(const nlohmann::json& w) {
+  const long long n = w["searches"].get<long long>();
+  const double per = n > 0 ? 1.0 / static_cast<double>(n) : 0.0;
+  char cells[96];
+  std::snprintf(cells, sizeof cells, "%9lld %7.3f %6.2f %7.2f", n, w["seconds"].get<double>(),
+                per * w["exact_distances"].get<double>(), per * w["plane_evaluations"].get<double>());
+  return cells;
+}
+
 nlohmann::json profile_json(const EventProfile& p) {
   nlohmann::json by_event = nlohmann::json::object();
   for (int k = 0; k < EventProfile::kKinds; ++k) {
@@ -79,11 +90,18 @@ nlohmann::json profile_json(const EventProfile& p) {
   nlohmann::json bins = nlohmann::json::array();
   for (int b = 0; b < EventProfile::kBins; ++b) {
     const EventProfile::Bin& x = p.bin[b];
-    bins.push_back({{"max_work", b < EventProfile::kBins - 1 ? nlohmann::json(EventProfile::kWorkBins[b]) : nlohmann::json(nullptr)},
-                    {"searches", x.searches},
-                    {"contacts", x.contacts},
-                    {"work", x.work},
-                    {"seconds", x.seconds}});
+    auto work = [](const EventProfile::Work& w) {
+      return nlohmann::json{{"searches", w.searches},
+                            {"work", w.work},
+                            {"exact_distances", w.exact_distances},
+                            {"plane_evaluations", w.plane_evaluations},
+                            {"seconds", w.seconds}};
+    };
+    nlohmann::json row = work(x.all);
+    row["max_work"] = b < EventProfile::kBins - 1 ? nlohmann::json(EventProfile::kWorkBins[b]) : nlohmann::json(nullptr);
+    row["contacts"] = x.found.searches;
+    row["found"] = work(x.found);
+    bins.push_back(row);
   }
   return {{"by_event", by_event}, {"pair_searches_by_work", bins}};
 }
@@ -135,7 +153,8 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   {
     const Predictor::SearchCounts& sc = sim.predictor_counts();
     j["ca_by_kind"] = {{"capture", sc.capture}, {"cluster_pair", sc.cluster_pair}, {"cluster_wall", sc.cluster_wall},
-                       {"cell", sc.cell}, {"cluster_pair_capsule", sc.cluster_pair_capsule}};
+                       {"cell", sc.cell}, {"cluster_pair_capsule", sc.cluster_pair_capsule},
+                       {"pair_capsule", sc.pair_capsule}};
   }
   if (params.compliant.enabled() && params.bonding.enabled) {
     j["compliant"] = {{"slices", s.slices},           {"slice_cuts", s.slice_cuts},
@@ -283,7 +302,8 @@ void add_replicate_command(CLI::App& app, ReplicateOptions& opt) {
   cmd->add_flag("--profile", opt.profile,
                 "Also report where the time went: per kind of event (collision, stale, wall, relocation, slice) its "
                 "events, predictions, pair and capture searches and wall seconds, and the pair searches binned by "
-                "their work (docs/OUTPUT.md, \"profile\"); the events are the same, the run 2-5 % slower");
+                "their work, with their exact distances and plane evaluations, all of them and those that found a "
+                "contact (docs/OUTPUT.md, \"profile\"); the events are the same, the run 2-5 % slower");
 }
 
 int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
@@ -325,11 +345,12 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
                       v["capture_searches"].get<long long>(), v["seconds"].get<double>());
         out << line;
       }
-      out << "pair searches by work (distance + plane evaluations: searches, contacts found, seconds)\n";
+      out << "pair searches by work (distance + plane evaluations): searches, seconds, exact distances and plane\n"
+             "evaluations per search; then the same for those that found a contact\n";
       for (int k = 0; k < EventProfile::kBins; ++k) {
         const nlohmann::json& b = j["profile"]["pair_searches_by_work"][k];
-        std::snprintf(line, sizeof line, "  %-22s %10lld %10lld %9.3f\n", work_bin_label(k).c_str(),
-                      b["searches"].get<long long>(), b["contacts"].get<long long>(), b["seconds"].get<double>());
+        const std::string cells = work_cells(b) + " | " + work_cells(b["found"]);
+        std::snprintf(line, sizeof line, "  %-22s %s\n", work_bin_label(k).c_str(), cells.c_str());
         out << line;
       }
     }
