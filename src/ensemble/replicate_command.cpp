@@ -67,7 +67,8 @@ std::string work_bin_label(int k) {
 }
 
 // One half of a row of the profile's work table: searches, seconds, and
-// exact distances and plane evaluations per search.
+// exact distances and plane evaluations per search (widths as the header's).
+constexpr const char* kWorkHeader = " searches seconds  exact  planes";
 std::string work_cells(const nlohmann::json& w) {
   const long long n = w["searches"].get<long long>();
   const double per = n > 0 ? 1.0 / static_cast<double>(n) : 0.0;
@@ -345,8 +346,9 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
                       v["capture_searches"].get<long long>(), v["seconds"].get<double>());
         out << line;
       }
-      out << "pair searches by work (distance + plane evaluations): searches, seconds, exact distances and plane\n"
-             "evaluations per search; then the same for those that found a contact\n";
+      out << "pair searches by work (distance + plane evaluations); left: all, right: those that found a contact\n";
+      std::snprintf(line, sizeof line, "  %-22s %s | %s\n", "work", kWorkHeader, kWorkHeader);
+      out << line;
       for (int k = 0; k < EventProfile::kBins; ++k) {
         const nlohmann::json& b = j["profile"]["pair_searches_by_work"][k];
         const std::string cells = work_cells(b) + " | " + work_cells(b["found"]);
