@@ -151,15 +151,15 @@ double Predictor::cone_enter(int i, const WindowSelf& self, const Vec3& ci, int 
   if (b_.cgroup[i] >= 0 || b_.cgroup[j] >= 0) return t;
   if (box_.periodic && self.radius + reference_radius(b_, j) + delta_ > image_safe_radius_) return t;
   const Vec3 cj = body_center(b_, j, t);
-  Vec3 dx = cj - ci;
-  if (box_.periodic) {
-    // On the image of the window (window_enter: the reference points'
-    // minimum image), the only one that can come within range in the
-    // search; the centres' own minimum image may be another when the
-    // members lie far out on their clusters.
+  // Periodic: on the image of the window (window_enter: the reference
+  // points' minimum image), the only one that can come within range in the
+  // search; the centres' own minimum image may be another when the members
+  // lie far out on their clusters.
+  auto on_window_image = [&] {
     const Vec3 rj = reference_center(b_, j, t);
-    dx = box_.min_image(rj - self.x) + (cj - rj) - (ci - self.x);
-  }
+    return Vec3(box_.min_image(rj - self.x) + (cj - rj) - (ci - self.x));
+  };
+  const Vec3 dx = box_.periodic ? on_window_image() : Vec3(cj - ci);
   const Vec3 dv = reference_velocity(b_, j) - self.v;
   const double B = b_.sp(i).bounding_radius + b_.sp(j).bounding_radius + delta_;
   const double K = point_rotation_bound(b_, i, 0.0) + point_rotation_bound(b_, j, 0.0);

@@ -315,7 +315,9 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
   // writes after the run still report their own failures.
   if (!opt.snapshot.empty()) check_output_path(opt.snapshot, "--snapshot");
   if (!opt.series.empty()) check_output_path(opt.series, "--series");
-  const nlohmann::json j = run_replicate(params, opt.seed, opt.replicate, ReplicateIo{opt.snapshot, opt.series, nullptr, nullptr, opt.profile});
+  ReplicateIo io{opt.snapshot, opt.series};
+  io.profile = opt.profile;
+  const nlohmann::json j = run_replicate(params, opt.seed, opt.replicate, io);
   if (opt.json) {
     out << j.dump() << '\n';
   } else {
