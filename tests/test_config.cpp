@@ -51,6 +51,7 @@ void expect_same(const SimParams& a, const SimParams& b) {
   EXPECT_EQ(a.init.temperature, b.init.temperature);
   EXPECT_EQ(a.bonding.enabled, b.bonding.enabled);
   EXPECT_EQ(a.bonding.capture_distance, b.bonding.capture_distance);
+  EXPECT_EQ(a.bonding.capture_site, b.bonding.capture_site);
   EXPECT_EQ(a.bonding.sphere_valency, b.bonding.sphere_valency);
   EXPECT_EQ(a.bonding.end_valency, b.bonding.end_valency);
   EXPECT_EQ(a.bonding.angle_filter, b.bonding.angle_filter);
@@ -125,6 +126,7 @@ TEST(Config, EmptyTextGivesStudyDefaults) {
   // Bonding: the study's Scenario 4 (= 6-2), MODEL.md "Capture and bond formation".
   EXPECT_TRUE(p.bonding.enabled);
   EXPECT_EQ(p.bonding.capture_distance, 0.1);
+  EXPECT_EQ(p.bonding.capture_site, CaptureSite::EndFace);
   EXPECT_EQ(p.bonding.sphere_valency, 2);
   EXPECT_EQ(p.bonding.end_valency, 1);
   EXPECT_TRUE(p.bonding.angle_filter);
@@ -345,6 +347,7 @@ TEST(Config, BondingKeys) {
   const std::string text = R"(
 [bonding]
 capture_distance = 0.25
+capture_site = "end_point"
 sphere_valency = 3
 end_valency = 0
 angle_filter = false
@@ -356,6 +359,7 @@ coplanarity_mode = "cis"
 )";
   const SimParams p = load_config(text, {}, "b.toml");
   EXPECT_EQ(p.bonding.capture_distance, 0.25);
+  EXPECT_EQ(p.bonding.capture_site, CaptureSite::EndPoint);
   EXPECT_EQ(p.bonding.sphere_valency, 3);
   EXPECT_EQ(p.bonding.end_valency, 0);
   EXPECT_FALSE(p.bonding.angle_filter);
@@ -370,6 +374,9 @@ coplanarity_mode = "cis"
   EXPECT_EQ(load_config("", {"bonding.coplanarity_mode=\"cis\""}, "b.toml").bonding.coplanarity_mode,
             CoplanarityMode::Cis);
   EXPECT_TRUE(load_config(text, {"bonding.angle_filter=true"}, "b.toml").bonding.angle_filter);
+  EXPECT_EQ(load_config(text, {"bonding.capture_site=end_face"}, "b.toml").bonding.capture_site, CaptureSite::EndFace);
+  EXPECT_CONTAINS(error_of("", {"bonding.capture_site=face"}),
+                  "bonding.capture_site = \"face\": must be one of end_face, end_point");
   EXPECT_CONTAINS(error_of("", {"bonding.end_valency=2"}), "--set: bonding.end_valency = 2: must be an integer in [0, 1]");
   EXPECT_CONTAINS(error_of("", {"bonding.dphi_deg=91"}), "--set: bonding.dphi_deg = 91: must be in [0, 90]");
 }
@@ -528,9 +535,13 @@ TEST(PeriodicMinimum, DefaultShapesCountContactCaptureToleranceAndSlack) {
   p.geometry.boundary = Boundary::Periodic;
   const InteractionRange r = interaction_range(p);
   // 2 x (2 sqrt(1 + 2^2) + 2 delta + 2 x 0.01): the linker's bounding sphere
-  // (4.472) beats the capture range h + r_S + r_c = 3.1.
+  // (4.472) beats the capture range: the face's rim sqrt(h^2 + r_L^2) + r_S +
+  // r_c = 3.336 (end_face), the end point h + r_S + r_c = 3.1 (end_point).
   EXPECT_DOUBLE_EQ(r.contact, 2.0 * std::sqrt(5.0));
-  EXPECT_DOUBLE_EQ(r.capture, 3.1);
+  EXPECT_DOUBLE_EQ(r.capture, std::sqrt(5.0) + 1.1);
+  p.bonding.capture_site = CaptureSite::EndPoint;
+  EXPECT_DOUBLE_EQ(interaction_range(p).capture, 3.1);
+  p.bonding.capture_site = CaptureSite::EndFace;
   EXPECT_DOUBLE_EQ(r.periodic_min_box(), 2.0 * (2.0 * std::sqrt(5.0) + 2e-9 + 0.02));
   EXPECT_NEAR(r.periodic_min_box(), 8.984271914, 1e-9);
   // Without bonding no capture and no cluster slack: 2 x (4.472 + 2 delta).
@@ -668,7 +679,7 @@ TEST(Config, UnknownKeyDidYouMean) {
   // Nothing close: list the section's keys.
   const std::string e = error_of("[bonding]\nbreakable = true");
   EXPECT_CONTAINS(e, "unknown key \"bonding.breakable\"");
-  EXPECT_CONTAINS(e, "valid keys in [bonding]: enabled, capture_distance, sphere_valency, end_valency, "
+  EXPECT_CONTAINS(e, "valid keys in [bonding]: enabled, capture_distance, capture_site, sphere_valency, end_valency, "
                      "angle_filter, theta0_deg, dtheta_deg, coplanarity_filter, dphi_deg, coplanarity_mode");
 }
 
@@ -766,6 +777,7 @@ TEST(Config, RoundTripIsExact) {
   p.bonding.coplanarity_filter = false;
   p.bonding.dphi_deg = 90.0;
   p.bonding.coplanarity_mode = CoplanarityMode::Cis;
+  p.bonding.capture_site = CaptureSite::EndPoint;
   p.compliant.c = 1.0 / 7.0;  // springs stay 0: compliant bonds cannot run yet
   p.compliant.c_omega = 1e-300;
   p.compliant.target_gap = 0.3;
@@ -804,7 +816,7 @@ TEST(Config, ScenarioRoundTripWithEscapedStrings) {
 
 TEST(Config, KeyInfoTable) {
   const auto& keys = config_keys();
-  ASSERT_EQ(keys.size(), 63u);
+  ASSERT_EQ(keys.size(), 64u);
   for (const KeyInfo& k : keys) {
     EXPECT_FALSE(k.type.empty()) << k.name;
     EXPECT_FALSE(k.default_value.empty()) << k.name;

@@ -407,6 +407,52 @@ double point_cylinder_distance(const Vec3& p, const Cylinder& c, Vec3* closest) 
   return d;
 }
 
+double point_disk_distance(const Vec3& x, const Vec3& c, const Vec3& n, double radius, Vec3* closest) {
+  const Vec3 d = x - c;
+  const double a = n.dot(d);
+  const Vec3 radial = d - a * n;
+  const double rho = radial.norm();
+  if (rho <= radius) {
+    if (closest) *closest = c + radial;
+    return std::abs(a);
+  }
+  if (closest) *closest = c + (radius / rho) * radial;
+  return std::hypot(a, rho - radius);
+}
+
+double point_disk_distance_search(const Vec3& x, const Vec3& c, const Vec3& n, double radius, int samples) {
+  // An orthonormal frame (e1, e2) of the disk's plane.
+  const Vec3 helper = std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+  const Vec3 e1 = n.cross(helper).normalized(), e2 = n.cross(e1);
+  const Vec3 d = x - c;
+  auto squared = [&](double phi) {
+    const Vec3 e = std::cos(phi) * e1 + std::sin(phi) * e2;
+    const double s = std::clamp(d.dot(e), 0.0, radius);
+    return (d - s * e).squaredNorm();
+  };
+  const double two_pi = 2.0 * M_PI, step = two_pi / samples;
+  int best = 0;
+  double fbest = squared(0.0);
+  for (int k = 1; k < samples; ++k) {
+    const double f = squared(k * step);
+    if (f < fbest) fbest = f, best = k;
+  }
+  // Golden section on [phi_best - step, phi_best + step].
+  const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+  double lo = (best - 1) * step, hi = (best + 1) * step;
+  double a = hi - g * (hi - lo), b = lo + g * (hi - lo), fa = squared(a), fb = squared(b);
+  for (int it = 0; it < 200 && hi - lo > 1e-15; ++it) {
+    if (fa < fb) {
+      hi = b, b = a, fb = fa;
+      a = hi - g * (hi - lo), fa = squared(a);
+    } else {
+      lo = a, a = b, fa = fb;
+      b = lo + g * (hi - lo), fb = squared(b);
+    }
+  }
+  return std::sqrt(std::min({fbest, fa, fb}));
+}
+
 Separation sphere_cylinder(const Vec3& center, double radius, const Cylinder& cyl) {
   Vec3 q, g;
   const double d = signed_point_cylinder(center, cyl, &q, &g);

@@ -6,7 +6,7 @@
 // Error budget (see docs/GEOMETRY.md): sphere-sphere and sphere-cylinder are
 // analytic (rounding only, ~1e-15 relative); cylinder-cylinder is
 // semi-analytic with an a-posteriori (duality-gap) error bound, ~1e-12 on
-// separated pairs, checked against ../shared/testdata.
+// separated pairs, checked against tests/data/cylinder_distance.json.
 
 #include "core/vec.hpp"
 
@@ -29,6 +29,22 @@ struct Separation {
 // Distance from a point to the solid cylinder; closest point on the cylinder.
 // Inside the solid: distance 0 and the point itself.
 double point_cylinder_distance(const Vec3& p, const Cylinder& c, Vec3* closest);
+
+// Distance from a point x to the solid disk of radius `radius` centred at c
+// with unit normal n (a linker's end face), closed form: split x - c into its
+// axial part a = n.(x - c) and its radial part rho = |(x - c) - a n|; the
+// closest point of the disk is c + min(rho, radius) e_rho, at distance
+// sqrt(a^2 + max(rho - radius, 0)^2). *closest (optional) receives it; on the
+// axis (rho = 0) it is the centre. Exact up to rounding.
+double point_disk_distance(const Vec3& x, const Vec3& c, const Vec3& n, double radius, Vec3* closest = nullptr);
+
+// The same distance found by search, independent of the closed form (the
+// reference of tests and of validation's missed-capture check): over the
+// azimuth phi of the disk, the closest point of the radius at phi is the
+// projection of x onto that segment (clamped to [0, radius]); the squared
+// distance as a function of phi is scanned at `samples` points and refined by
+// golden-section search on the best bracket to the resolution of a double.
+double point_disk_distance_search(const Vec3& x, const Vec3& c, const Vec3& n, double radius, int samples = 64);
 
 // Sphere (A) versus cylinder (B), analytic.
 Separation sphere_cylinder(const Vec3& center, double radius, const Cylinder& cyl);

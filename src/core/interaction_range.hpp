@@ -10,9 +10,11 @@
 //  - R_max: the largest bounding radius among the species present (r_S for a
 //    sphere, sqrt(r_L^2 + (l_L/2)^2) for a linker); a species with no body
 //    sets nothing;
-//  - capture = h + r_S + r_c, the largest linker-sphere centre distance at a
-//    capture (h = l_L/2, r_c = bonding.capture_distance); only with bonding on
-//    and both species present, else 0;
+//  - capture = a + r_S + r_c, the largest linker-sphere centre distance at a
+//    capture (r_c = bonding.capture_distance; a = sqrt(h^2 + r_L^2), the end
+//    face's rim, with bonding.capture_site = end_face, a = h = l_L/2, the end
+//    point, with end_point); only with bonding on and both species present,
+//    else 0;
 //  - 2 delta: the contact band (run.contact_tolerance) of both bodies;
 //  - slack = 2 Predictor::cell_slack(): a cluster member may stray that far
 //    outside its cell, so cells are that much wider; only when clusters can
@@ -29,7 +31,7 @@ namespace ringsim {
 
 struct InteractionRange {
   double contact = 0.0;    // 2 R_max over the species present
-  double capture = 0.0;    // h + r_S + r_c, or 0
+  double capture = 0.0;    // a + r_S + r_c, or 0
   double tolerance = 0.0;  // 2 delta
   double slack = 0.0;      // 2 cell_slack, or 0
   double range() const { return (contact > capture ? contact : capture) + tolerance + slack; }

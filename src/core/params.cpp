@@ -47,6 +47,14 @@ const char* to_string(CoplanarityMode m) {
   return "?";
 }
 
+const char* to_string(CaptureSite s) {
+  switch (s) {
+    case CaptureSite::EndFace: return "end_face";
+    case CaptureSite::EndPoint: return "end_point";
+  }
+  return "?";
+}
+
 const char* to_string(CompliantMethod m) {
   switch (m) {
     case CompliantMethod::Auto: return "auto";

@@ -19,6 +19,10 @@ enum class QueueKind { Fast, Reference };
 // Which dihedrals the coplanarity filter accepts (MODEL.md, capture rule 3):
 // CisOrTrans, deviation min(|phi|, 180 - |phi|) (the Decision); Cis, |phi|.
 enum class CoplanarityMode { CisOrTrans, Cis };
+// Where the capture gap is measured on a linker end (MODEL.md, "Capture and
+// bond formation"): EndFace, the surface distance from the sphere to the end
+// face's disk (the Decision); EndPoint, the distance to the face's centre.
+enum class CaptureSite { EndFace, EndPoint };
 // Integrator of compliant clusters (docs/COMPLIANT.md, stability study).
 enum class CompliantMethod { Auto, Bdf, Adams, Erk };
 
@@ -60,7 +64,9 @@ struct InitParams {
 // Angles in degrees; the geometry of the rules is in core/bond_rules.hpp.
 struct BondingParams {
   bool enabled = true;            // false: hard bodies only, no captures
-  double capture_distance = 0.1;  // r_c: a capture is the gap |p - x_S| - r_S falling through r_c
+  double capture_distance = 0.1;  // r_c: a capture is the gap g falling through r_c
+  // g = dist(x_S, end-face disk) - r_S (EndFace) or |p - x_S| - r_S (EndPoint)
+  CaptureSite capture_site = CaptureSite::EndFace;
   int sphere_valency = 2;         // v_S: bonds a sphere can carry
   // v_aL = v_bL: bonds one linker end can carry. At most 1: an end face meets
   // at most one sphere, and the rules (bond angle, dihedral) assume one.
@@ -153,6 +159,7 @@ const char* to_string(CombineRule r);
 const char* to_string(VelocityInit v);
 const char* to_string(QueueKind q);
 const char* to_string(CoplanarityMode m);
+const char* to_string(CaptureSite s);
 const char* to_string(CompliantMethod m);
 
 }  // namespace ringsim

@@ -36,6 +36,7 @@
 
 #include "core/body.hpp"
 #include "core/geometry.hpp"
+#include "core/params.hpp"
 #include "core/separating_plane.hpp"
 
 namespace ringsim {
@@ -162,10 +163,15 @@ class Predictor {
   // this much wider on each side (Simulation), so neighbour search stays exact.
   static constexpr double cell_slack() { return 0.01; }
 
+  // Where capture gaps are measured (bonding.capture_site); EndFace unless set.
+  void set_capture_site(CaptureSite site) { capture_site_ = site; }
+  CaptureSite capture_site() const { return capture_site_; }
   // Capture (MODEL.md, "Capture and bond formation"): earliest time in
-  // [t, limit) at which the gap g = |p - x_S| - r_S between end `end` of
-  // linker l (p = x + h u for end 0, x - h u for end 1) and sphere s falls
-  // through `rc`, i.e. g <= rc + delta while decreasing. Hysteresis: a pair
+  // [t, limit) at which the capture gap g between end `end` of linker l and
+  // sphere s falls through `rc`, i.e. g <= rc + delta while decreasing. The
+  // end is the face centred at p = x + h u (end 0) or x - h u (end 1), normal
+  // +-u; g = dist(x_S, face disk) - r_S (EndFace) or |p - x_S| - r_S
+  // (EndPoint). Hysteresis: a pair
   // whose capture was refused (capture_refused) must leave the shell
   // (g > rc + 2 delta) before it can fire again. Any other pair that starts in
   // the firing band closing fires at t: the search was re-started (a cell
@@ -179,6 +185,17 @@ class Predictor {
   void capture_refused(int l, int end, int s);
   // Capture gap g - rc at t (minimum image).
   double capture_gap(int l, int end, int s, double t, double rc) const;
+  // The pair's capture geometry at t: the face centre p, the closest point q
+  // of the capture site (q = p with EndPoint), the sphere's centre cs in q's
+  // periodic image, the linker's centre cl, and g - rc = |cs - q| - r_S - rc.
+  struct CaptureGeometry {
+    Vec3 p, q, cs, cl, axis;
+    double gap;
+  };
+  CaptureGeometry capture_geometry(int l, int end, int s, double t, double rc) const;
+  // Whether a refused capture of end `end` of l by s is still waiting for
+  // the end to leave the shell (validation's missed-capture check).
+  bool capture_is_refused(int l, int end, int s) const { return refused(l, end, s); }
 
   ContactGeometry contact_geometry(int i, int j, double t) const;
   // For a search step: contact_geometry, unless both are linkers whose lower
@@ -302,6 +319,7 @@ class Predictor {
   Box box_;
   double delta_;
   double min_separation_;  // the separation floor (wall_contact)
+  CaptureSite capture_site_ = CaptureSite::EndFace;
   std::uint64_t ca_iterations_ = 0;
   SearchCounts counts_;
   long plane_evaluations_ = 0;

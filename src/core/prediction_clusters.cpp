@@ -285,9 +285,28 @@ double Predictor::leave_cell(int i, double t, double limit, const Vec3& lo, doub
 }
 
 double Predictor::capture_gap(int l, int end, int s, double t, double rc) const {
+  if (capture_site_ == CaptureSite::EndFace) return capture_geometry(l, end, s, t, rc).gap;
   const double h = b_.sp(l).half_length;
   const Vec3 p = body_center(b_, l, t) + (end == 0 ? h : -h) * body_axis(b_, l, t);
   return box_.min_image(body_center(b_, s, t) - p).norm() - b_.sp(s).radius - rc;
+}
+
+Predictor::CaptureGeometry Predictor::capture_geometry(int l, int end, int s, double t, double rc) const {
+  const Species& sl = b_.sp(l);
+  CaptureGeometry g;
+  g.cl = body_center(b_, l, t);
+  g.axis = body_axis(b_, l, t);
+  g.p = g.cl + (end == 0 ? sl.half_length : -sl.half_length) * g.axis;
+  g.cs = g.p + box_.min_image(body_center(b_, s, t) - g.p);
+  double dist;
+  if (capture_site_ == CaptureSite::EndFace) {
+    dist = geom::point_disk_distance(g.cs, g.p, g.axis, sl.radius, &g.q);
+  } else {
+    g.q = g.p;
+    dist = (g.cs - g.p).norm();
+  }
+  g.gap = dist - b_.sp(s).radius - rc;
+  return g;
 }
 
 double Predictor::capture(int l, int end, int s, double t, double limit, double rc) {
@@ -317,11 +336,14 @@ void Predictor::forget_refused(int l, int end, int s) {
 }
 
 double Predictor::capture_on_image(int l, int end, int s, double t, double limit, double rc, bool now) {
-  const double h = b_.sp(l).half_length;
-  const double rs = b_.sp(s).radius;
-  // Window: the end point stays within h (+ reach) of l's reference point, the
+  const bool face = capture_site_ == CaptureSite::EndFace;
+  const double rs = b_.sp(s).radius, r_face = b_.sp(l).radius;
+  // The farthest point of the capture site from l's centre: the end point at
+  // h, or the face's rim at sqrt(h^2 + r_L^2), the linker's bounding radius.
+  const double arm = face ? b_.sp(l).bounding_radius : b_.sp(l).half_length;
+  // Window: the site stays within arm (+ reach) of l's reference point, the
   // sphere's centre within its reach of its own.
-  const double rl = reference_offset(b_, l) + h;
+  const double rl = reference_offset(b_, l) + arm;
   const double rsph = reference_offset(b_, s);
   const Vec3 dx = box_.min_image(reference_center(b_, s, t) - reference_center(b_, l, t));
   const Vec3 dv = reference_velocity(b_, s) - reference_velocity(b_, l);
@@ -343,18 +365,21 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
   image_closed_ = t + leave < limit;
   if (image_closed_) proven_until_ = closed_window_end(box_, dx, dv, R, t, leave);
   const double stop = std::min(limit, t + leave);
-  const double bound = dv.norm() + point_rotation_bound(b_, l, h) + point_rotation_bound(b_, s, 0.0);
+  // The gap is the distance from a point to a moving rigid set (point or
+  // disk), less constants: it changes no faster than the point plus the
+  // set's fastest point (the disk's spin about its own axis leaves it whole).
+  const double bound = dv.norm() + point_rotation_bound(b_, l, arm) + point_rotation_bound(b_, s, 0.0);
   if (bound == 0.0) return kNever;
   const double floor_step = min_step(bound);
   double x = t;
-  // The gap's rate at x along the line from the end to the sphere's centre
-  // (negative: closing).
+  // The gap's rate at x along the line from the site's closest point q to
+  // the sphere's centre (negative: closing). For a distance to a convex set
+  // that line is the gradient, so the rate is the relative velocity of the
+  // two material points along it.
   auto closing = [&](double at) {
-    const Vec3 cl = body_center(b_, l, at);
-    const Vec3 p = cl + (end == 0 ? h : -h) * body_axis(b_, l, at);
-    const Vec3 cs = p + box_.min_image(body_center(b_, s, at) - p);
-    const Vec3 n = (cs - p).normalized();
-    return n.dot(shape_point_velocity(b_, s, at, cs, cs) - shape_point_velocity(b_, l, at, p, cl)) < 0.0;
+    const CaptureGeometry cg = capture_geometry(l, end, s, at, rc);
+    const Vec3 n = (cg.cs - cg.q).normalized();
+    return n.dot(shape_point_velocity(b_, s, at, cg.cs, cg.cs) - shape_point_velocity(b_, l, at, cg.q, cg.cl)) < 0.0;
   };
   // In the firing band and closing, not refused: the gap entered the band
   // since the last search (which stopped short of its capture), fire now.
@@ -387,18 +412,30 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
     }
     double advance_by = std::max((g - 0.5 * delta_) / bound, floor_step);
     if (x + advance_by < stop) {
-      // The gap along the present direction n from the end to the sphere's
-      // centre bounds it from below: |c_S - p| >= n.(c_S - p), and each point
+      // The gap along the present direction n from the site's closest point
+      // q to the sphere's centre bounds it from below. End point (q = p):
+      // |c_S - p| >= n.(c_S - p). End face: every point of the disk lies
+      // within n.p + r_L |n x u| along n (its support), so
+      //   dist(c_S, disk) >= n.(c_S - p) - r_L |n x u|,
+      // with equality now (n lies in the plane of u and q - p). Each point
       // follows its first-order motion within a quadratic remainder
-      // (PointMotion), a concave quadratic lower bound of the gap.
-      const Vec3 cl = body_center(b_, l, x);
-      const Vec3 p = cl + (end == 0 ? h : -h) * body_axis(b_, l, x);
-      const Vec3 cs = p + box_.min_image(body_center(b_, s, x) - p);
-      const Vec3 n = (cs - p).normalized();
-      const PointMotion mp = point_motion(b_, l, x, p, cl + (reference_center(b_, l, x) - body_center(b_, l, x)));
-      const PointMotion ms = point_motion(b_, s, x, cs, cs + (reference_center(b_, s, x) - body_center(b_, s, x)));
-      const double a = n.dot(cs - p) - rs - rc;
-      advance_by = std::max(advance_by, quadratic_reach(a, n.dot(ms.vel - mp.vel), mp.quad + ms.quad, 0.5 * delta_));
+      // (PointMotion), and so does the axis: u(x + tau) = u + tau omega x u
+      // + e, |e| <= accel tau^2 / 2 (LocalMotion), so |n x u| grows at most
+      // by tau |n x (omega x u)| + accel tau^2 / 2. Together a concave
+      // quadratic lower bound of the gap.
+      const CaptureGeometry cg = capture_geometry(l, end, s, x, rc);
+      const Vec3 n = (cg.cs - cg.q).normalized();
+      const PointMotion mp = point_motion(b_, l, x, cg.p, cg.cl + (reference_center(b_, l, x) - body_center(b_, l, x)));
+      const PointMotion ms =
+          point_motion(b_, s, x, cg.cs, cg.cs + (reference_center(b_, s, x) - body_center(b_, s, x)));
+      double a = n.dot(cg.cs - cg.p) - rs - rc, rate = n.dot(ms.vel - mp.vel), quad = mp.quad + ms.quad;
+      if (face) {
+        const LocalMotion lm = local_motion(b_, l, x);
+        a -= r_face * cross_norm(n, cg.axis);
+        rate -= r_face * cross_norm(n, lm.omega.cross(cg.axis));
+        quad += 0.5 * r_face * lm.accel;
+      }
+      advance_by = std::max(advance_by, quadratic_reach(a, rate, quad, 0.5 * delta_));
     }
     x += advance_by;
   }

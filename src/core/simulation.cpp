@@ -93,6 +93,7 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
     throw std::invalid_argument("geometry.box_length = " + std::to_string(box_.length) + ": must be > " +
                                 std::to_string(reach.periodic_min_box()) +
                                 " with geometry.boundary = periodic (twice the interaction range, minimum image)");
+  predictor_.set_capture_site(params.bonding.capture_site);
   const double cell = std::max(range, params.run.cell_size);
   grid_ = CellGrid(box_.length, cell, n, box_.periodic);
   if (params.run.partner_horizon) {

@@ -186,6 +186,9 @@ class Simulation {
   // 1-2 and 1-3 pairs of the bond graph (a sphere and a linker bonded to it,
   // two linkers on one sphere, two spheres on one linker): never in contact.
   bool contact_excluded(int i, int j) const;
+  // A refused capture of end `end` of l by s still waiting for the end to
+  // leave the shell (Predictor::capture_refused).
+  bool capture_refused(int l, int end, int s) const { return predictor_.capture_is_refused(l, end, s); }
   // Integrator work so far (stats().sundials_*), including live clusters.
   void collect_integrator_stats();
 

@@ -13,12 +13,20 @@
 //  - energy (only meaningful when every restitution is 1, contacts are
 //    smooth and bonding is off): |E - E0| / E0; otherwise the largest
 //    relative *increase* (a rigid bond is a perfectly inelastic merge).
+//  - missed captures (bonding on): pairs of a free linker end and a sphere
+//    below its valency, not held together (one rigid cluster, a bonded
+//    neighbour), whose capture gap, computed by search
+//    (geom::point_disk_distance_search, or the plain point distance with
+//    bonding.capture_site = end_point), lies below r_c by more than
+//    kMissedCaptureMargin without a refusal on record: such a pair crossed r_c
+//    without a capture event;
 //  - axis length: the largest | |u| - 1 | of a linker's axis (the geometry
 //    takes every axis as a unit vector; a rigid cluster keeps its members'
 //    axes for good, so an error here would persist).
 
 #include <cstdint>
 
+#include "core/params.hpp"
 #include "core/vec.hpp"
 
 namespace ringsim {
@@ -35,6 +43,8 @@ struct ValidationReport {
   double max_energy_error = 0.0;      // elastic: |dE|/E0; inelastic: max(0, dE)/E0
   double max_axis_error = 0.0;        // max over checks and linkers of | |u| - 1 |
   double first_overlap_time = -1.0;
+  std::int64_t missed_captures = 0;   // summed over checks
+  double first_missed_capture_time = -1.0;
 };
 
 class Validator {
@@ -50,6 +60,15 @@ class Validator {
   // *max_axis_error (optional): raised to the largest | |u| - 1 | of a linker
   // axis among the poses it evaluates.
   static std::int64_t count_overlaps(const Simulation& sim, double t, double slack, double* max_axis_error = nullptr);
+  // Pairs inside the capture shell that should have been captured (see
+  // above), with the gap measured at `site` (the run's own, or another one
+  // for tests). A pair is near when its centres are within the linker's
+  // bounding radius + r_S + r_c.
+  static std::int64_t count_missed_captures(const Simulation& sim, double t, CaptureSite site);
+  // How far below r_c a gap must be to count (a capture fires at most
+  // delta = 1e-9 above it and the gap then goes on falling, so any pair that
+  // went through the event is bonded or refused long before this).
+  static constexpr double kMissedCaptureMargin = 1e-7;
 
  private:
   double slack_;

@@ -124,6 +124,10 @@ struct EnumValues<CoplanarityMode> {
   static constexpr std::array all{CoplanarityMode::CisOrTrans, CoplanarityMode::Cis};
 };
 template <>
+struct EnumValues<CaptureSite> {
+  static constexpr std::array all{CaptureSite::EndFace, CaptureSite::EndPoint};
+};
+template <>
 struct EnumValues<CompliantMethod> {
   static constexpr std::array all{CompliantMethod::Auto, CompliantMethod::Bdf, CompliantMethod::Adams,
                                   CompliantMethod::Erk};
@@ -332,8 +336,13 @@ const std::vector<KeyDesc>& key_table() {
       key<&S::bonding, &B::enabled>("bonding.enabled", any(),
           "capture and bond formation; false = hard bodies only, no captures"),
       key<&S::bonding, &B::capture_distance>("bonding.capture_distance", greater(0),
-          "capture distance r_c (length): a linker end and a sphere meet when the gap |p - x_S| - r_S "
-          "falls through r_c; < geometry.linker_length"),
+          "capture distance r_c (length): a linker end and a sphere meet when the capture gap g "
+          "(bonding.capture_site) falls through r_c; < geometry.linker_length"),
+      key<&S::bonding, &B::capture_site>("bonding.capture_site", any(),
+          "where the capture gap is measured: end_face (g = distance from the sphere's centre to the end face's "
+          "disk of radius r_L, minus r_S: the sphere's surface to the face; the study's closest approach) or "
+          "end_point (g = |p - x_S| - r_S to the face's centre point p only; a window of radius ~0.46 on the face, "
+          "bonding ~10x slower)"),
       key<&S::bonding, &B::sphere_valency>("bonding.sphere_valency", at_least(0),
           "valency v_S: number of bonds a sphere can carry"),
       key<&S::bonding, &B::end_valency>("bonding.end_valency", closed(0, 1),
@@ -745,8 +754,11 @@ void check_cross(const SimParams& p, const Origins& origins, Problems& problems)
                      format_real(2.0 * r_max) + " (" + which + ")");
   } else if (p.geometry.boundary == Boundary::Periodic && !(p.geometry.box_length > periodic_min)) {
     std::string terms = reach.capture > reach.contact
-                            ? "capture range geometry.linker_length/2 + geometry.sphere_radius + "
-                              "bonding.capture_distance = " + format_real(reach.capture)
+                            ? std::string("capture range ") +
+                                  (p.bonding.capture_site == CaptureSite::EndFace
+                                       ? "sqrt((geometry.linker_length/2)^2 + geometry.linker_radius^2)"
+                                       : "geometry.linker_length/2") +
+                                  " + geometry.sphere_radius + bonding.capture_distance = " + format_real(reach.capture)
                             : "2 x " + which;
     terms += " + 2 x run.contact_tolerance";
     if (reach.slack > 0.0)

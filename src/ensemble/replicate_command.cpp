@@ -210,6 +210,7 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
     const ValidationReport& r = validator->report();
     j["validation"] = {{"checks", r.checks},
                        {"overlaps", r.overlaps},
+                       {"missed_captures", r.missed_captures},
                        {"max_momentum_error", r.max_momentum_error},
                        {"max_angular_momentum_error", r.max_angular_momentum_error},
                        {"max_energy_error", r.max_energy_error},
