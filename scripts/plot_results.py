@@ -4,6 +4,8 @@
   plot_results.py rings  FILES... -o rings.png    ring-size distribution per configuration
   plot_results.py series FILES... -o nt.png       N_t(t) of one replicate per file, with its MSER cut
   plot_results.py sweep  FILES... -o sweep.png    each Table 5 observable against the swept --set key(s)
+  plot_results.py runs   FILES... [-o runs.md]    how the replicates ran, per configuration (Markdown):
+                                                  how each ended, median wall time, bonds, rings
 
 Files of the same configuration (the config_hash attribute) are merged, as
 `ringsim aggregate` does: rows count once per (seed, id), only status 1
@@ -116,6 +118,32 @@ def plot_series(groups, out):
     fig.savefig(out, dpi=120)
 
 
+def write_runs(groups, out):
+    """One Markdown row per configuration: how its replicates ended (counts
+    of each termination), the median and total wall time of one replicate,
+    mean t_end, bonds, captures and collisions, and the rings formed in all."""
+    lines = ["| configuration | n | ended by | wall s, median (total) | t_end, mean | bonds | captures | "
+             "collisions | rings (all replicates) |",
+             "|:---|---:|:---|---:|---:|---:|---:|---:|---:|"]
+    for g in groups.values():
+        rows = list(g["rows"].values())
+        ends = OrderedDict()
+        for r in rows:
+            ends[text(r["termination"])] = ends.get(text(r["termination"]), 0) + 1
+        wall = np.array([r["wall_seconds"] for r in rows])
+        rings = sum(int(r[c]) for r in rows for c in RING_COLUMNS)
+        mean = lambda f: np.mean([float(r[f]) for r in rows])  # noqa: E731
+        lines.append(f"| {name(g)} | {len(rows)} | " + ", ".join(f"{k} ({v})" for k, v in ends.items()) +
+                     f" | {np.median(wall):.1f} ({wall.sum():.0f}) | {mean('t_end'):.0f} | {mean('bonds'):.0f} | "
+                     f"{mean('captures'):.0f} | {mean('collisions'):.3g} | {rings} |")
+    body = "\n".join(lines) + "\n"
+    if out:
+        with open(out, "w") as f:
+            f.write(body)
+    else:
+        sys.stdout.write(body)
+
+
 def swept_keys(groups):
     """Swept --set keys, those whose values differ between configurations.
     Keys that always change together (e.g. dtheta_deg and dphi_deg swept as
@@ -168,13 +196,16 @@ def plot_sweep(groups, out):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("kind", choices=["rings", "series", "sweep"])
+    p.add_argument("kind", choices=["rings", "series", "sweep", "runs"])
     p.add_argument("files", nargs="+")
-    p.add_argument("-o", "--output", required=True, help="PNG file to write")
+    p.add_argument("-o", "--output", help="PNG file to write (runs: Markdown file, default standard output)")
     a = p.parse_args()
+    if a.kind != "runs" and not a.output:
+        p.error(f"{a.kind}: -o/--output PNG is required")
     groups = load(a.files)
-    {"rings": plot_rings, "series": plot_series, "sweep": plot_sweep}[a.kind](groups, a.output)
-    print(f"wrote {a.output}")
+    {"rings": plot_rings, "series": plot_series, "sweep": plot_sweep, "runs": write_runs}[a.kind](groups, a.output)
+    if a.output:
+        print(f"wrote {a.output}", file=sys.stderr if a.kind == "runs" else sys.stdout)
 
 
 if __name__ == "__main__":
