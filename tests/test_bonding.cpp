@@ -905,6 +905,30 @@ TEST(Determinism, SameSeedSameObservables) {
   EXPECT_EQ(once(), once());
 }
 
+// bonding.capture_site = end_point is the capture reading of every earlier
+// release, kept bit for bit: Scenario 4, seed 1, replicate 0 to t = 100
+// gives exactly the events, collisions, captures and final momentum that
+// `ringsim replicate jobs/scenarios/4-passive-selection.toml --seed 1 --set
+// run.t_max=100 --json` printed at commit 21e564a, before the end-face
+// reading existed (its printed values, shortest round-trip decimals).
+TEST(Determinism, EndPointReadingReproducesTheEarlierRelease) {
+  SimParams p = scenario_params(true, true);
+  p.bonding.capture_site = CaptureSite::EndPoint;
+  p.run.t_max = 100.0;
+  Simulation sim(p, build_scene(p, 1, 0, nullptr));
+  sim.run();
+  EXPECT_EQ(sim.stats().events, 33063);
+  EXPECT_EQ(sim.stats().collisions, 7159);
+  EXPECT_EQ(sim.stats().captures, 53);
+  EXPECT_EQ(sim.stats().bonds, 53);
+  EXPECT_EQ(sim.graph().N_t(), 547);
+  sim.synchronize(sim.time());
+  const MechanicalTotals m = mechanical_totals(sim.bodies(), sim.time());
+  EXPECT_EQ(m.momentum.x(), 48.43574233488052);
+  EXPECT_EQ(m.momentum.y(), -15.430115250631216);
+  EXPECT_EQ(m.momentum.z(), -154.37210474675283);
+}
+
 // The cone start (Predictor::cone_enter): two points dx apart, moving apart
 // at dv, each straying from its line by at most K tau in all, first come
 // within B when |dx + dv tau| = B + K tau (hand-solved cases).
