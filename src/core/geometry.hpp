@@ -6,7 +6,7 @@
 // Error budget (see docs/GEOMETRY.md): sphere-sphere and sphere-cylinder are
 // analytic (rounding only, ~1e-15 relative); cylinder-cylinder is
 // semi-analytic with an a-posteriori (duality-gap) error bound, ~1e-12 on
-// separated pairs, checked against ../shared/testdata.
+// separated pairs, checked against tests/data/cylinder_distance.json.
 
 #include "core/vec.hpp"
 
