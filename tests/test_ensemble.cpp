@@ -427,3 +427,17 @@ TEST_F(Ensemble, ReplicateCountAndSeriesSizeAreBounded) {
   EXPECT_NE(c.out.find("must be <= 2e9"), std::string::npos) << c.out;
   EXPECT_FALSE(fs::exists(path("huge_series.h5")));
 }
+
+TEST_F(Ensemble, AnOutputBelowARegularFileNamesTheFile) {
+  const std::string file = path("plain_file");
+  { std::FILE* f = std::fopen(file.c_str(), "w"); ASSERT_NE(f, nullptr); std::fclose(f); }
+  for (const std::string& out : {file + "/out.h5", file + "/sub/out.h5"}) {
+    const Cmd c = shell(binary() + " run --replicates 1 --seed 1" + kFast + " -o " + out);
+    EXPECT_EQ(c.status, 1) << c.out;
+    EXPECT_NE(c.out.find("'" + file + "' is a regular file, not a directory"), std::string::npos) << c.out;
+    EXPECT_NE(c.out.find("--output " + out), std::string::npos) << c.out;
+  }
+  const Cmd snap = shell(binary() + " replicate --seed 1 --set run.t_max=1 --snapshot " + file + "/final.xyz");
+  EXPECT_EQ(snap.status, 1) << snap.out;
+  EXPECT_NE(snap.out.find("'" + file + "' is a regular file"), std::string::npos) << snap.out;
+}
