@@ -369,10 +369,11 @@ TEST_F(Ensemble, AggregateMergesShardsDropsDuplicatesAndSeparatesConfigurations)
 }
 
 TEST_F(Ensemble, AnEnsembleWhoseScenesCannotBeBuiltExitsFour) {
-  // A box of 10 holds no 600 bodies: every replicate fails at scene
+  // A box of 22 asks for a packing fraction of 0.47 (below the bound checked
+  // up front) that placement does not reach: every replicate fails at scene
   // building. The file and the table are still written; the exit code says so.
   const std::string f = path("no_scene.h5");
-  const Cmd c = shell(binary() + " run --replicates 2 --seed 1 --set geometry.box_length=10 -o " + f);
+  const Cmd c = shell(binary() + " run --replicates 2 --seed 1 --set geometry.box_length=22 -o " + f);
   EXPECT_EQ(c.status, 4) << c.out;
   EXPECT_NE(c.out.find("2 of 2 replicates failed"), std::string::npos) << c.out;
   const ResultsContent r = read_results(f);
@@ -440,4 +441,36 @@ TEST_F(Ensemble, AnOutputBelowARegularFileNamesTheFile) {
   const Cmd snap = shell(binary() + " replicate --seed 1 --set run.t_max=1 --snapshot " + file + "/final.xyz");
   EXPECT_EQ(snap.status, 1) << snap.out;
   EXPECT_NE(snap.out.find("'" + file + "' is a regular file"), std::string::npos) << snap.out;
+}
+
+namespace {
+
+// The line of `text` that contains `key`, without its newline ("" if none).
+std::string line_with(const std::string& text, const std::string& key) {
+  const auto at = text.find(key);
+  if (at == std::string::npos) return "";
+  const auto start = text.rfind('\n', at);
+  const auto end = text.find('\n', at);
+  return text.substr(start == std::string::npos ? 0 : start + 1,
+                     (end == std::string::npos ? text.size() : end) - (start == std::string::npos ? 0 : start + 1));
+}
+
+}  // namespace
+
+TEST_F(Ensemble, ASceneNoReplicateCouldBuildIsRefusedBeforeAnyStarts) {
+  // 200000 linkers cannot fit a box of 50: `run` says so at once, exit 1, in
+  // the words of `ringsim replicate` (which exits 2 for it), and makes no file.
+  const std::string f = path("impossible.h5");
+  const Cmd run = shell_apart("timeout 120 " + mpirun(2) + " run --replicates 4 --seed 1 --set init.linkers=200000 -o " +
+                              f);
+  EXPECT_EQ(run.status, 1) << run.err;
+  EXPECT_FALSE(fs::exists(f));
+  EXPECT_EQ(run.err.find("replicates done"), std::string::npos) << run.err;
+  const Cmd rep = shell("timeout 120 " + binary() + " replicate --seed 1 --set init.linkers=200000");
+  EXPECT_EQ(rep.status, 2) << rep.out;
+  const std::string said = line_with(rep.out, "scene error");
+  ASSERT_FALSE(said.empty()) << rep.out;
+  EXPECT_NE(said.find("init.linkers = 200000"), std::string::npos) << said;
+  EXPECT_NE(said.find("geometry.box_length = 50"), std::string::npos) << said;
+  EXPECT_EQ(line_with(run.err, "scene error"), said) << run.err;
 }

@@ -274,7 +274,8 @@ void add_run_command(CLI::App& app, RunOptions& opt) {
       "  mpirun -np 4 ringsim run jobs/scenarios/1-baseline.toml --replicates 1000 --seed 1 -o s1.h5\n"
       "  mpirun -np 4 ringsim run jobs/scenarios/1-baseline.toml --replicates 1000 --seed 1 -o s1.h5 --resume\n"
       "  ringsim aggregate s1.h5 s2.h5 --format markdown\n"
-      "Exit codes: 0 done; 1 configuration or command-line error (also an -o that is not a regular file);\n"
+      "Exit codes: 0 done; 1 configuration or command-line error (also an -o that is not a regular file, and\n"
+      "bodies too many for the box to hold at random close packing: refused before any replicate starts);\n"
       "3 other error (file, MPI, stdout not writable);\n"
       "4 finished, but at least one replicate failed, e.g. a scene that cannot be built (the file and table\n"
       "are written; see the rows' `error`);\n"
@@ -332,6 +333,15 @@ int run_main(const RunOptions& opt, std::ostream& out, std::ostream& err) {
     return 1;
   }
   const SimParams params = scenario.params;
+  // A scene no replicate could build fails every replicate: refuse it now,
+  // with the message `ringsim replicate` gives for it (exit 1 here: the
+  // configuration is what is wrong, and nothing has started).
+  try {
+    check_scene_packing(params);
+  } catch (const SceneError& e) {
+    if (root) err << "ringsim: scene error: " << e.what() << '\n';
+    return 1;
+  }
   const std::size_t L = opt.series
                             ? static_cast<std::size_t>(std::floor(params.run.t_max / params.run.sample_interval)) + 2
                             : 0;
