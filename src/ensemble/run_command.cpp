@@ -167,7 +167,7 @@ std::string config_differences(const std::string& stored, const std::string& req
     if (!find(a, key)) diffs.push_back(key + ": not stored, requested " + value);
   std::string s;
   for (const std::string& d : diffs) s += (s.empty() ? "" : "; ") + d;
-  return s;
+  return s.empty() ? "the same keys and values, written differently" : s;
 }
 
 // Progress on rank 0: a live bar or plain lines (ensemble/progress_mode.hpp).
