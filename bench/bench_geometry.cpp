@@ -1,5 +1,5 @@
 // Narrow-phase timings over the reference poses of
-// ../shared/testdata/cylinder_distance.json (cylinders near contact, random,
+// tests/data/cylinder_distance.json (cylinders near contact, random,
 // parallel, perpendicular, coaxial and cap-to-side). Each iteration is one
 // query; the pose cycles through the set.
 #include <benchmark/benchmark.h>
@@ -16,7 +16,7 @@
 #include "core/geometry.hpp"
 
 #ifndef RINGSIM_TESTDATA_DIR
-#define RINGSIM_TESTDATA_DIR "../shared/testdata"
+#define RINGSIM_TESTDATA_DIR "tests/data"
 #endif
 
 namespace {
@@ -25,14 +25,14 @@ using ringsim::Vec3;
 using namespace ringsim::geom;
 
 // The reference file: RINGSIM_TESTDATA_DIR (compile definition or environment
-// variable), else ../shared/testdata next to the repository this file is in
+// variable), else tests/data of the repository this file is in
 // (via __FILE__, so it works from any build directory), else relative to cwd.
 std::ifstream open_testdata() {
   std::vector<std::string> dirs = {RINGSIM_TESTDATA_DIR};
   if (const char* env = std::getenv("RINGSIM_TESTDATA_DIR")) dirs.insert(dirs.begin(), env);
   const std::string src = __FILE__;
   const auto slash = src.rfind('/');
-  if (slash != std::string::npos) dirs.push_back(src.substr(0, slash) + "/../../shared/testdata");
+  if (slash != std::string::npos) dirs.push_back(src.substr(0, slash) + "/../tests/data");
   for (const std::string& d : dirs) {
     std::ifstream in(d + "/cylinder_distance.json");
     if (in) return in;

@@ -295,7 +295,8 @@ TEST_F(Ensemble, RefusesOverwriteMismatchedResumeAndUnwritablePaths) {
   c = shell(binary() + args + " --set bonding.dtheta_deg=7 -o " + f + " --resume");
   EXPECT_EQ(c.status, 3);
   EXPECT_NE(c.out.find("configuration differs"), std::string::npos) << c.out;
-  EXPECT_NE(c.out.find("dtheta_deg = 7"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("bonding.dtheta_deg: stored "), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find(", requested 7"), std::string::npos) << c.out;
   c = shell(binary() + " run --replicates 3 --seed 1" + kFast + " -o " + f + " --resume");
   EXPECT_EQ(c.status, 3);
   EXPECT_NE(c.out.find("--replicates 2"), std::string::npos) << c.out;
@@ -369,10 +370,11 @@ TEST_F(Ensemble, AggregateMergesShardsDropsDuplicatesAndSeparatesConfigurations)
 }
 
 TEST_F(Ensemble, AnEnsembleWhoseScenesCannotBeBuiltExitsFour) {
-  // A box of 10 holds no 600 bodies: every replicate fails at scene
+  // A box of 22 asks for a packing fraction of 0.47 (below the bound checked
+  // up front) that placement does not reach: every replicate fails at scene
   // building. The file and the table are still written; the exit code says so.
   const std::string f = path("no_scene.h5");
-  const Cmd c = shell(binary() + " run --replicates 2 --seed 1 --set geometry.box_length=10 -o " + f);
+  const Cmd c = shell(binary() + " run --replicates 2 --seed 1 --set geometry.box_length=22 -o " + f);
   EXPECT_EQ(c.status, 4) << c.out;
   EXPECT_NE(c.out.find("2 of 2 replicates failed"), std::string::npos) << c.out;
   const ResultsContent r = read_results(f);
@@ -426,4 +428,84 @@ TEST_F(Ensemble, ReplicateCountAndSeriesSizeAreBounded) {
   EXPECT_EQ(c.status, 1) << c.out;
   EXPECT_NE(c.out.find("must be <= 2e9"), std::string::npos) << c.out;
   EXPECT_FALSE(fs::exists(path("huge_series.h5")));
+}
+
+namespace {
+
+// The line of `text` that contains `key`, without its newline ("" if none).
+std::string line_with(const std::string& text, const std::string& key) {
+  const auto at = text.find(key);
+  if (at == std::string::npos) return "";
+  const auto start = text.rfind('\n', at);
+  const auto end = text.find('\n', at);
+  return text.substr(start == std::string::npos ? 0 : start + 1,
+                     (end == std::string::npos ? text.size() : end) - (start == std::string::npos ? 0 : start + 1));
+}
+
+}  // namespace
+
+TEST_F(Ensemble, ResumeOfAnotherConfigurationNamesTheFullKeyAndBothValues) {
+  const std::string f = path("resume_key.h5");
+  const std::string scene = " --set init.spheres=60 --set init.linkers=60 --set geometry.box_length=25";
+  ASSERT_EQ(shell(binary() + " run --replicates 1 --seed 1 --progress none" + scene + " --set run.t_max=20 -o " + f)
+                .status,
+            0);
+  const Cmd c = shell(binary() + " run --replicates 1 --seed 1" + scene + " --set run.t_max=30 -o " + f + " --resume");
+  EXPECT_EQ(c.status, 3) << c.out;
+  EXPECT_NE(c.out.find("run.t_max: stored 20"), std::string::npos) << c.out;
+  EXPECT_NE(c.out.find("requested 30"), std::string::npos) << c.out;
+  // Only the key that differs is named.
+  EXPECT_EQ(c.out.find("init.spheres:"), std::string::npos) << c.out;
+}
+
+TEST_F(Ensemble, ASceneNoReplicateCouldBuildIsRefusedBeforeAnyStarts) {
+  // 200000 linkers cannot fit a box of 50: `run` says so at once, exit 1, in
+  // the words of `ringsim replicate` (which exits 2 for it), and makes no file.
+  const std::string f = path("impossible.h5");
+  const Cmd run = shell_apart("timeout 120 " + mpirun(2) + " run --replicates 4 --seed 1 --set init.linkers=200000 -o " +
+                              f);
+  EXPECT_EQ(run.status, 1) << run.err;
+  EXPECT_FALSE(fs::exists(f));
+  EXPECT_EQ(run.err.find("replicates done"), std::string::npos) << run.err;
+  const Cmd rep = shell("timeout 120 " + binary() + " replicate --seed 1 --set init.linkers=200000");
+  EXPECT_EQ(rep.status, 2) << rep.out;
+  const std::string said = line_with(rep.out, "scene error");
+  ASSERT_FALSE(said.empty()) << rep.out;
+  EXPECT_NE(said.find("init.linkers = 200000"), std::string::npos) << said;
+  EXPECT_NE(said.find("geometry.box_length = 50"), std::string::npos) << said;
+  EXPECT_EQ(line_with(run.err, "scene error"), said) << run.err;
+}
+
+TEST_F(Ensemble, AnOutputBelowARegularFileNamesTheFile) {
+  const std::string file = path("plain_file");
+  { std::FILE* f = std::fopen(file.c_str(), "w"); ASSERT_NE(f, nullptr); std::fclose(f); }
+  for (const std::string& out : {file + "/out.h5", file + "/sub/out.h5"}) {
+    const Cmd c = shell(binary() + " run --replicates 1 --seed 1" + kFast + " -o " + out);
+    EXPECT_EQ(c.status, 1) << c.out;
+    EXPECT_NE(c.out.find("'" + file + "' is a regular file, not a directory"), std::string::npos) << c.out;
+    EXPECT_NE(c.out.find("--output " + out), std::string::npos) << c.out;
+  }
+  const Cmd snap = shell(binary() + " replicate --seed 1 --set run.t_max=1 --snapshot " + file + "/final.xyz");
+  EXPECT_EQ(snap.status, 1) << snap.out;
+  EXPECT_NE(snap.out.find("'" + file + "' is a regular file"), std::string::npos) << snap.out;
+}
+
+TEST_F(Ensemble, MpirunOnATerminalShowsTheLiveBarByDefault) {
+  // script(1) gives mpirun a pseudo-terminal; the ranks still write into
+  // pipes. Default: the bar. Through a pipe, or with --progress log: lines.
+  if (shell("command -v script").status != 0) GTEST_SKIP() << "script(1) (util-linux) not installed";
+  const std::string run = mpirun(2) + " run --replicates 2 --seed 1" + kFast + " --force -o ";
+  const Cmd tty = shell("timeout 300 script -qec '" + run + path("bar.h5") + "' /dev/null < /dev/null");
+  ASSERT_EQ(tty.status, 0) << tty.out;
+  EXPECT_NE(tty.out.find("\r["), std::string::npos) << tty.out;
+  EXPECT_NE(tty.out.find("] 2/2"), std::string::npos) << tty.out;
+  EXPECT_EQ(tty.out.find("replicates done"), std::string::npos) << tty.out;
+  const Cmd log = shell("timeout 300 script -qec '" + run + path("log.h5") + " --progress log' /dev/null < /dev/null");
+  ASSERT_EQ(log.status, 0) << log.out;
+  EXPECT_EQ(log.out.find("\r["), std::string::npos) << log.out;
+  EXPECT_NE(log.out.find("2/2 replicates done"), std::string::npos) << log.out;
+  const Cmd piped = shell_apart(run + path("pipe.h5"));
+  ASSERT_EQ(piped.status, 0) << piped.err;
+  EXPECT_EQ(piped.err.find("\r["), std::string::npos) << piped.err;
+  EXPECT_NE(piped.err.find("2/2 replicates done"), std::string::npos) << piped.err;
 }

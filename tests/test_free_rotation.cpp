@@ -1,5 +1,5 @@
 // Exact torque-free rotation (core/free_rotation): against the independent
-// reference integration in ../shared/testdata/free_rotation.json, against a
+// reference integration in tests/data/free_rotation.json, against a
 // Dormand-Prince integration of Euler's equations written here, against closed
 // forms (symmetric top, spherical top, principal-axis rotation), conservation
 // of L and E over 1e4 periods, the group property R(t2) = R_{t1}(t2 - t1), the
@@ -27,7 +27,7 @@
 #include "core/free_rotation.hpp"
 
 #ifndef RINGSIM_TESTDATA_DIR
-#define RINGSIM_TESTDATA_DIR "../shared/testdata"
+#define RINGSIM_TESTDATA_DIR "tests/data"
 #endif
 
 namespace {

@@ -1,5 +1,5 @@
 // Narrow-phase geometry against hand-derived cases and the independent
-// reference set ../shared/testdata/cylinder_distance.json.
+// reference set tests/data/cylinder_distance.json.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,7 +17,7 @@
 #include "core/shapes.hpp"
 
 #ifndef RINGSIM_TESTDATA_DIR
-#define RINGSIM_TESTDATA_DIR "../shared/testdata"
+#define RINGSIM_TESTDATA_DIR "tests/data"
 #endif
 
 namespace {

@@ -112,7 +112,28 @@ struct Region {
 
 }  // namespace
 
+void check_scene_packing(const SimParams& p) {
+  const int ns = p.init.spheres, nl = p.init.linkers;
+  const double L = p.geometry.box_length;
+  const double requested =
+      (ns * solid_volume(make_species(Shape::Sphere, p)) + nl * solid_volume(make_species(Shape::Linker, p))) /
+      (L * L * L);
+  // Random packings of hard convex bodies jam well below space filling; this
+  // bound is generous (random close packing of spheres is ~0.64).
+  constexpr double kMaxPacking = 0.64;
+  if (requested > kMaxPacking) {
+    char msg[400];
+    std::snprintf(msg, sizeof msg,
+                  "cannot place init.spheres = %d spheres and init.linkers = %d linkers in a box of edge "
+                  "geometry.box_length = %g: their solid volume is a packing fraction %.4g of the box, which must be "
+                  "<= %.2g (random close packing). Use fewer bodies or a larger geometry.box_length.",
+                  ns, nl, L, requested, kMaxPacking);
+    throw SceneError(msg);
+  }
+}
+
 BodyStore build_scene(const SimParams& p, std::uint64_t seed, std::uint64_t replicate, SceneReport* report) {
+  check_scene_packing(p);
   const int ns = p.init.spheres, nl = p.init.linkers, n = ns + nl;
   const double L = p.geometry.box_length;
   BodyStore b;
@@ -126,17 +147,6 @@ BodyStore build_scene(const SimParams& p, std::uint64_t seed, std::uint64_t repl
 
   const double box_volume = L * L * L;
   const double requested = (ns * solid_volume(b.species[0]) + nl * solid_volume(b.species[1])) / box_volume;
-  // Random packings of hard convex bodies jam well below space filling; this
-  // bound is generous (random close packing of spheres is ~0.64).
-  constexpr double kMaxPacking = 0.64;
-  if (requested > kMaxPacking) {
-    char msg[256];
-    std::snprintf(msg, sizeof msg,
-                  "cannot place %d spheres and %d linkers in a box of edge %g: the requested packing fraction %.4g exceeds "
-                  "%.2g (random close packing); packing fraction reached: 0",
-                  ns, nl, L, requested, kMaxPacking);
-    throw SceneError(msg);
-  }
 
   const bool periodic = p.geometry.boundary == Boundary::Periodic;
   const double margin = 10.0 * p.run.contact_tolerance;  // start clear of the contact band

@@ -36,6 +36,12 @@ struct SceneReport {
 // Species constants (shape, mass and inertia from density, contact material).
 Species make_species(Shape shape, const SimParams& p);
 
+// Refuses a scene no placement can realise: throws SceneError when the bodies'
+// solid volume exceeds random close packing of the box. Depends on the
+// parameters only, so `run` checks it once before any replicate starts;
+// build_scene checks it first (the same message either way).
+void check_scene_packing(const SimParams& p);
+
 // Builds the scene; ids: spheres 0 .. N_S-1, then linkers. Throws SceneError.
 BodyStore build_scene(const SimParams& p, std::uint64_t seed, std::uint64_t replicate, SceneReport* report);
 

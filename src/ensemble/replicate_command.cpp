@@ -2,7 +2,6 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
-#include <cstdio>
 #include <fstream>
 #include <limits>
 #include <stdexcept>
@@ -16,6 +15,7 @@
 #include "core/validation.hpp"
 #include "ensemble/cli_checks.hpp"
 #include "ensemble/config.hpp"
+#include "ensemble/replicate_report.hpp"
 #include "ringsim/version.hpp"
 
 namespace ringsim {
@@ -56,26 +56,6 @@ void write_series(const Simulation& sim, const std::string& path) {
   for (double v : sim.monitor().samples()) out << v << '\n';
   out.close();
   if (!out) throw std::runtime_error("could not write series file " + path + " (disk full?)");
-}
-
-// Bin k of the profile's pair-search work: "0", "1-3", ..., "> 1000".
-std::string work_bin_label(int k) {
-  const std::int64_t* edge = EventProfile::kWorkBins;
-  if (k == 0) return "0";
-  if (k == EventProfile::kBins - 1) return "> " + std::to_string(edge[k - 1]);
-  return std::to_string(edge[k - 1] + 1) + "-" + std::to_string(edge[k]);
-}
-
-// One half of a row of the profile's work table: searches, seconds, and
-// exact distances and plane evaluations per search (widths as the header's).
-constexpr const char* kWorkHeader = " searches seconds  exact  planes";
-std::string work_cells(const nlohmann::json& w) {
-  const long long n = w["searches"].get<long long>();
-  const double per = n > 0 ? 1.0 / static_cast<double>(n) : 0.0;
-  char cells[96];
-  std::snprintf(cells, sizeof cells, "%9lld %7.3f %6.2f %7.2f", n, w["seconds"].get<double>(),
-                per * w["exact_distances"].get<double>(), per * w["plane_evaluations"].get<double>());
-  return cells;
 }
 
 nlohmann::json profile_json(const EventProfile& p) {
@@ -322,44 +302,7 @@ int replicate_main(const ReplicateOptions& opt, std::ostream& out) {
   if (opt.json) {
     out << j.dump() << '\n';
   } else {
-    char line[160];
-    auto row = [&](const char* k, const std::string& v) {
-      std::snprintf(line, sizeof line, "  %-22s ", k);
-      out << line << v << '\n';  // (v may be longer than the buffer: the energy budget is)
-    };
-    out << "ringsim replicate (" << kVersion << ")\n";
-    out << "observables (final time; fractions, not percent)\n";
-    for (const char* k : {"N_t", "N_tar", "N_viab", "N_cyc", "rings", "Phi_obj", "Phi_viab", "S4", "M_mono", "M_mono_S",
-                          "M_mono_L", "tau_tar", "tau_tar_censored"})
-      row(k, j[k].dump());
-    out << "run\n";
-    for (const char* k : {"seed", "spheres", "linkers", "packing_fraction", "mixing", "t_end", "termination", "events",
-                          "collisions", "wall_collisions", "captures", "bonds", "closure_bonds", "rejected",
-                          "cell_crossings", "stale_events", "tc_collisions", "floored_contacts", "ca_steps", "wall_seconds",
-                          "events_per_second", "energy", "momentum", "energy_budget"})
-      row(k, j[k].dump());
-    if (j.contains("compliant")) row("compliant", j["compliant"].dump());
-    if (j.contains("validation")) row("validation", j["validation"].dump());
-    if (j.contains("profile")) {
-      out << "profile (per kind of event: events, predictions, pair searches, capture searches, seconds)\n";
-      for (const char* kind : EventProfile::kNames) {
-        const nlohmann::json& v = j["profile"]["by_event"][kind];
-        std::snprintf(line, sizeof line, "  %-22s %10lld %10lld %11lld %11lld %9.3f\n", kind,
-                      v["events"].get<long long>(), v["predictions"].get<long long>(), v["pair_searches"].get<long long>(),
-                      v["capture_searches"].get<long long>(), v["seconds"].get<double>());
-        out << line;
-      }
-      out << "pair searches by work (distance + plane evaluations); left: all, right: those that found a contact\n";
-      std::snprintf(line, sizeof line, "  %-22s %s | %s\n", "work", kWorkHeader, kWorkHeader);
-      out << line;
-      for (int k = 0; k < EventProfile::kBins; ++k) {
-        const nlohmann::json& b = j["profile"]["pair_searches_by_work"][k];
-        const std::string cells = work_cells(b) + " | " + work_cells(b["found"]);
-        std::snprintf(line, sizeof line, "  %-22s %s\n", work_bin_label(k).c_str(), cells.c_str());
-        out << line;
-      }
-    }
-    if (j.contains("error")) row("error", j["error"].get<std::string>());
+    print_replicate_report(j, out);
   }
   return j["termination"] == "error" ? 3 : 0;
 }

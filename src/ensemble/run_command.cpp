@@ -13,12 +13,15 @@
 #include <memory>
 #include <ostream>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "analysis/ensemble_summary.hpp"
 #include "analysis/table5.hpp"
 #include "core/scene.hpp"
 #include "ensemble/cli_checks.hpp"
 #include "ensemble/config.hpp"
+#include "ensemble/progress_mode.hpp"
 #include "ensemble/replicate_command.hpp"
 #include "ensemble/results_file.hpp"
 #include "ensemble/scheduler.hpp"
@@ -127,28 +130,53 @@ std::string join(const std::vector<std::string>& v, const char* sep) {
   return s;
 }
 
-// The first line where two configurations differ, for the refusal message.
-std::string first_difference(const std::string& a, const std::string& b) {
-  std::istringstream ia(a), ib(b);
-  std::string la, lb;
-  for (;;) {
-    const bool ga = static_cast<bool>(std::getline(ia, la));
-    const bool gb = static_cast<bool>(std::getline(ib, lb));
-    if (!ga && !gb) return "";
-    if (!ga) la = "(nothing)";
-    if (!gb) lb = "(nothing)";
-    if (la != lb) return "file has `" + la + "`, this run has `" + lb + "`";
+// The keys of a configuration written by config_to_toml ("[section]" headers,
+// "key = value" lines) as "section.key" -> value, in file order.
+std::vector<std::pair<std::string, std::string>> toml_keys(const std::string& toml) {
+  std::vector<std::pair<std::string, std::string>> out;
+  std::istringstream in(toml);
+  std::string line, section;
+  while (std::getline(in, line)) {
+    if (line.size() >= 2 && line.front() == '[' && line.back() == ']') {
+      section = line.substr(1, line.size() - 2);
+      continue;
+    }
+    const auto eq = line.find(" = ");
+    if (eq == std::string::npos) continue;
+    out.emplace_back(section.empty() ? line.substr(0, eq) : section + "." + line.substr(0, eq), line.substr(eq + 3));
   }
+  return out;
 }
 
-// Progress on rank 0: a live bar on a terminal, plain lines otherwise.
+// Every key whose value differs between the stored and the requested
+// configuration, for the refusal message: "run.t_max: stored 200, requested 300".
+std::string config_differences(const std::string& stored, const std::string& requested) {
+  const auto a = toml_keys(stored), b = toml_keys(requested);
+  auto find = [](const std::vector<std::pair<std::string, std::string>>& v, const std::string& key) -> const std::string* {
+    for (const auto& kv : v)
+      if (kv.first == key) return &kv.second;
+    return nullptr;
+  };
+  std::vector<std::string> diffs;
+  for (const auto& [key, value] : a) {
+    const std::string* other = find(b, key);
+    if (!other) diffs.push_back(key + ": stored " + value + ", not in this version's configuration");
+    else if (*other != value) diffs.push_back(key + ": stored " + value + ", requested " + *other);
+  }
+  for (const auto& [key, value] : b)
+    if (!find(a, key)) diffs.push_back(key + ": not stored, requested " + value);
+  std::string s;
+  for (const std::string& d : diffs) s += (s.empty() ? "" : "; ") + d;
+  return s.empty() ? "the same keys and values, written differently" : s;
+}
+
+// Progress on rank 0: a live bar or plain lines (ensemble/progress_mode.hpp).
 class Progress {
  public:
   Progress(std::ostream& err, std::uint64_t to_run, std::uint64_t done_before, std::uint64_t total, double interval,
-           const std::string& mode)
+           ProgressForm form)
       : err_(err), to_run_(to_run), before_(done_before), total_(total), interval_(interval),
-        tty_(mode == "bar" || (mode == "auto" && isatty(STDERR_FILENO) == 1)), quiet_(mode == "none"),
-        start_(Clock::now()), last_(start_) {}
+        tty_(form == ProgressForm::Bar), quiet_(form == ProgressForm::None), start_(Clock::now()), last_(start_) {}
   void count(bool failed) {
     ++done_;
     failed_ += failed;
@@ -225,9 +253,9 @@ Prepared prepare_output(const RunOptions& opt, const Provenance& fresh, std::ost
     }
     const Provenance& old = c.provenance;
     if (old.config_hash != fresh.config_hash)
-      throw std::runtime_error("cannot resume " + opt.output + ": its configuration differs from this run's (hash " +
-                               old.config_hash + " vs " + fresh.config_hash + "; " +
-                               first_difference(old.config_toml, fresh.config_toml) +
+      throw std::runtime_error("cannot resume " + opt.output + ": its configuration differs from this run's (" +
+                               config_differences(old.config_toml, fresh.config_toml) + "; config hash " +
+                               old.config_hash + " vs " + fresh.config_hash +
                                "). Resume with the same scenario and --set options, or write to a new file.");
     if (old.base_seed != fresh.base_seed || old.replicates != fresh.replicates)
       throw std::runtime_error("cannot resume " + opt.output + ": it holds --replicates " +
@@ -274,7 +302,8 @@ void add_run_command(CLI::App& app, RunOptions& opt) {
       "  mpirun -np 4 ringsim run jobs/scenarios/1-baseline.toml --replicates 1000 --seed 1 -o s1.h5\n"
       "  mpirun -np 4 ringsim run jobs/scenarios/1-baseline.toml --replicates 1000 --seed 1 -o s1.h5 --resume\n"
       "  ringsim aggregate s1.h5 s2.h5 --format markdown\n"
-      "Exit codes: 0 done; 1 configuration or command-line error (also an -o that is not a regular file);\n"
+      "Exit codes: 0 done; 1 configuration or command-line error (also an -o that is not a regular file, and\n"
+      "bodies too many for the box to hold at random close packing: refused before any replicate starts);\n"
       "3 other error (file, MPI, stdout not writable);\n"
       "4 finished, but at least one replicate failed, e.g. a scene that cannot be built (the file and table\n"
       "are written; see the rows' `error`);\n"
@@ -299,13 +328,13 @@ void add_run_command(CLI::App& app, RunOptions& opt) {
                 "starts a new file when none exists");
   cmd->add_flag("--force", opt.force, "Replace an existing file (the old one stays until the new one is created)");
   cmd->add_flag("--series", opt.series, "Also store each replicate's sampled N_t(t) in /series/N_t");
-  cmd->add_option("--progress-interval", opt.progress_interval,
-                  "Seconds between progress lines when stderr is not a terminal (a live bar otherwise)")
+  cmd->add_option("--progress-interval", opt.progress_interval, "Seconds between progress lines (--progress log)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--progress", opt.progress,
-                  "Progress on rank 0's stderr: bar (live, one line), log (a line every --progress-interval s), "
-                  "none; auto (default): bar on a terminal, else log. Under mpirun stderr is a pipe: use "
-                  "--progress bar for a live bar in an interactive shell")
+                  "Progress on rank 0's stderr: bar (live, one line), log (a timestamped line every "
+                  "--progress-interval s), none; auto (default): bar when rank 0's stderr is a terminal, or, "
+                  "under mpirun/mpiexec, when the launcher's stderr is one (an interactive shell; found through "
+                  "/proc on rank 0's node); log otherwise (batch jobs, files, pipes)")
       ->check(CLI::IsMember({"auto", "bar", "log", "none"}));
   cmd->add_option("--format", opt.format, "Closing Table 5 on stdout: table, markdown, csv or json")
       ->check(CLI::IsMember({"table", "markdown", "csv", "json"}));
@@ -332,6 +361,15 @@ int run_main(const RunOptions& opt, std::ostream& out, std::ostream& err) {
     return 1;
   }
   const SimParams params = scenario.params;
+  // A scene no replicate could build fails every replicate: refuse it now,
+  // with the message `ringsim replicate` gives for it (exit 1 here: the
+  // configuration is what is wrong, and nothing has started).
+  try {
+    check_scene_packing(params);
+  } catch (const SceneError& e) {
+    if (root) err << "ringsim: scene error: " << e.what() << '\n';
+    return 1;
+  }
   const std::size_t L = opt.series
                             ? static_cast<std::size_t>(std::floor(params.run.t_max / params.run.sample_interval)) + 2
                             : 0;
@@ -406,7 +444,7 @@ int run_main(const RunOptions& opt, std::ostream& out, std::ostream& err) {
   CoordinatorHooks hooks;
   if (root) {
     progress = std::make_unique<Progress>(err, prep.ids.size(), prep.done_before, opt.replicates,
-                                          opt.progress_interval, opt.progress);
+                                          opt.progress_interval, resolve_progress(opt.progress));
     err << "ringsim run: scenario " << prep.provenance.scenario << " (config " << prep.provenance.config_hash
         << "), " << opt.replicates << " replicates, " << prep.ids.size() << " to run, " << mpi.size()
         << (mpi.size() == 1 ? " rank" : " ranks") << ", output " << opt.output << '\n';

@@ -32,7 +32,7 @@ struct RunOptions {
   bool force = false;
   bool series = false;           // store N_t(t) per replicate in /series/N_t
   double progress_interval = 30;  // seconds between log lines
-  std::string progress = "auto";   // bar (live, \r), log (lines), none; auto: bar when stderr is a terminal
+  std::string progress = "auto";   // bar (live, \r), log (lines), none; auto: ensemble/progress_mode.hpp
   std::string format = "table";  // the closing Table 5: table, markdown, csv, json
 };
 
