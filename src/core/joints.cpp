@@ -1,0 +1,194 @@
+#include "core/joints.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/bond_rules.hpp"
+
+namespace ringsim {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+Mat3 skew(const Vec3& r) {
+  Mat3 s;
+  s << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
+  return s;
+}
+
+double wrap_angle(double x) {
+  x = std::remainder(x, 2.0 * kPi);  // in [-pi, pi]
+  return x <= -kPi ? x + 2.0 * kPi : x;
+}
+
+Vec3 outward(const CompliantBody& linker, int end) { return outward_axis(linker.axis(), end); }
+
+// Dihedral about unit u between unit n0, n1 (dihedral_deg's convention, in
+// radians): phi = atan2(u.(a x b), a.b), a = u x n0, b = u x n1.
+double dihedral(const Vec3& u, const Vec3& n0, const Vec3& n1) {
+  const Vec3 a = u.cross(n0), b = u.cross(n1);
+  return std::atan2(u.dot(a.cross(b)), a.dot(b));
+}
+
+}  // namespace
+
+BallJoint make_ball_joint(const std::vector<CompliantBody>& bodies, int sphere, int linker) {
+  const CompliantBody& l = bodies[linker];
+  return {sphere, linker, l.q.conjugate() * (bodies[sphere].x - l.x)};
+}
+
+HeldAngle make_held_angle(const std::vector<CompliantBody>& bodies, int sphere, int linker_a, int end_a,
+                          int linker_b, int end_b) {
+  const Vec3 na = outward(bodies[linker_a], end_a), nb = outward(bodies[linker_b], end_b);
+  return {sphere, linker_a, end_a, linker_b, end_b, std::atan2(na.cross(nb).norm(), na.dot(nb))};
+}
+
+HeldDihedral make_held_dihedral(const std::vector<CompliantBody>& bodies, int linker, int nb0, int nb0_end,
+                                int nb1, int nb1_end) {
+  const double phi = dihedral(bodies[linker].axis(), outward(bodies[nb0], nb0_end), outward(bodies[nb1], nb1_end));
+  return {linker, nb0, nb0_end, nb1, nb1_end, phi};
+}
+
+bool held_angle_defined(double theta0) { return std::sin(theta0) >= kHeldMinSine; }
+
+bool held_dihedral_defined(const Vec3& u, const Vec3& n0, const Vec3& n1) {
+  return u.cross(n0).norm() >= kHeldMinSine && u.cross(n1).norm() >= kHeldMinSine;
+}
+
+double min_joint_sine(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+  double m = 1.0;
+  for (const HeldAngle& a : joints.angles) {
+    m = std::min(m, outward(bodies[a.linker_a], a.end_a).cross(outward(bodies[a.linker_b], a.end_b)).norm());
+  }
+  for (const HeldDihedral& d : joints.dihedrals) {
+    const Vec3 u = bodies[d.linker].axis();
+    m = std::min({m, u.cross(bodies[d.nb0].axis()).norm(), u.cross(bodies[d.nb1].axis()).norm()});
+  }
+  return m;
+}
+
+VelocityLayout::VelocityLayout(const std::vector<CompliantBody>& bodies) {
+  offset.resize(bodies.size());
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    offset[i] = size;
+    size += width(bodies[i].shape);
+  }
+}
+
+Eigen::VectorXd velocity_vector(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout) {
+  Eigen::VectorXd nu(layout.size);
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    nu.segment<3>(layout.offset[i]) = bodies[i].v;
+    if (bodies[i].shape == Shape::Linker) nu.segment<3>(layout.offset[i] + 3) = bodies[i].omega;
+  }
+  return nu;
+}
+
+void set_velocities(std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const Eigen::VectorXd& nu) {
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    bodies[i].v = nu.segment<3>(layout.offset[i]);
+    if (bodies[i].shape == Shape::Linker) bodies[i].omega = nu.segment<3>(layout.offset[i] + 3);
+  }
+}
+
+void displace(std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const Eigen::VectorXd& dnu) {
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    CompliantBody& b = bodies[i];
+    b.x += dnu.segment<3>(layout.offset[i]);
+    if (b.shape != Shape::Linker) continue;
+    const Vec3 w = dnu.segment<3>(layout.offset[i] + 3);
+    const double angle = w.norm();
+    if (angle > 0.0) b.q = (Eigen::AngleAxisd(angle, w / angle) * b.q).normalized();
+  }
+}
+
+Eigen::VectorXd joint_residual(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+  Eigen::VectorXd c(joints.rows());
+  int row = 0;
+  for (const BallJoint& j : joints.balls) {
+    const CompliantBody& l = bodies[j.linker];
+    c.segment<3>(row) = bodies[j.sphere].x - l.x - l.q * j.anchor;
+    row += 3;
+  }
+  for (const HeldAngle& a : joints.angles) {
+    const Vec3 na = outward(bodies[a.linker_a], a.end_a), nb = outward(bodies[a.linker_b], a.end_b);
+    c[row++] = (std::cos(a.theta0) - na.dot(nb)) / std::sin(a.theta0);
+  }
+  for (const HeldDihedral& d : joints.dihedrals) {
+    const double phi =
+        dihedral(bodies[d.linker].axis(), outward(bodies[d.nb0], d.nb0_end), outward(bodies[d.nb1], d.nb1_end));
+    c[row++] = wrap_angle(phi - d.phi0);
+  }
+  return c;
+}
+
+void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
+                JointRows& out) {
+  const int m = joints.rows();
+  out.c = joint_residual(bodies, joints);
+  out.g.setZero(m, layout.size);
+  out.bias.setZero(m);
+  int row = 0;
+
+  // Ball joint: C' = v_S - v_L - omega_L x r = v_S - v_L + [r]x omega_L,
+  // r = R a; (dG/dt) nu = [r']x omega_L = (omega_L x r) x omega_L.
+  for (const BallJoint& j : joints.balls) {
+    const CompliantBody& l = bodies[j.linker];
+    const Vec3 r = l.q * j.anchor;
+    out.g.block<3, 3>(row, layout.offset[j.sphere]) += Mat3::Identity();
+    out.g.block<3, 3>(row, layout.offset[j.linker]) -= Mat3::Identity();
+    out.g.block<3, 3>(row, layout.offset[j.linker] + 3) += skew(r);
+    out.bias.segment<3>(row) = -l.omega.cross(l.omega.cross(r));
+    row += 3;
+  }
+
+  // Held angle: with c = n_A x n_B, d(n_A . n_B)/dt = (omega_A - omega_B) . c,
+  // so G_A = -c / s0, G_B = +c / s0 (s0 = sin theta0), and the bias is
+  // -c' . (omega_A - omega_B) / s0 with c' = (omega_A x n_A) x n_B + n_A x (omega_B x n_B).
+  for (const HeldAngle& a : joints.angles) {
+    const CompliantBody &la = bodies[a.linker_a], &lb = bodies[a.linker_b];
+    const Vec3 na = outward(la, a.end_a), nb = outward(lb, a.end_b);
+    const double s0 = std::sin(a.theta0);
+    const Vec3 c = na.cross(nb);
+    out.g.block<1, 3>(row, layout.offset[a.linker_a] + 3) -= c.transpose() / s0;
+    out.g.block<1, 3>(row, layout.offset[a.linker_b] + 3) += c.transpose() / s0;
+    const Vec3 dc = la.omega.cross(na).cross(nb) + na.cross(lb.omega.cross(nb));
+    out.bias[row] = -dc.dot(la.omega - lb.omega) / s0;
+    ++row;
+  }
+
+  // Held dihedral (core/compliant.cpp, dihedral_geom; Blondel & Karplus,
+  // J. Comput. Chem. 17, 1132 (1996), written for rotations of rigid axes):
+  //   G0 = -p0 / A0, p0 = u - (u.n0) n0, A0 = |u x n0|^2 = 1 - (u.n0)^2,
+  //   G1 = +p1 / A1, GM = -(G0 + G1) (phi is invariant under a global turn).
+  // Bias: sum_i G_i' . omega_i with, for k = 0, 1 (s_0 = -1, s_1 = +1),
+  //   c_k = u.n_k, c_k' = u'.n_k + u.n_k', p_k' = u' - c_k' n_k - c_k n_k',
+  //   A_k' = -2 c_k c_k',  G_k' = s_k (p_k' / A_k - p_k A_k' / A_k^2),
+  // u' = omega_M x u, n_k' = omega_k x n_k.
+  for (const HeldDihedral& d : joints.dihedrals) {
+    const CompliantBody& lm = bodies[d.linker];
+    const Vec3 u = lm.axis();
+    const Vec3 du = lm.omega.cross(u);
+    const int nb[2] = {d.nb0, d.nb1};
+    const int end[2] = {d.nb0_end, d.nb1_end};
+    Vec3 g[2], dg[2];
+    for (int k = 0; k < 2; ++k) {
+      const CompliantBody& ln = bodies[nb[k]];
+      const Vec3 n = outward(ln, end[k]);
+      const Vec3 dn = ln.omega.cross(n);
+      const double s = k == 0 ? -1.0 : 1.0;
+      const double c = u.dot(n), dc = du.dot(n) + u.dot(dn);
+      const double area = u.cross(n).squaredNorm(), darea = -2.0 * c * dc;
+      const Vec3 p = u - c * n, dp = du - dc * n - c * dn;
+      g[k] = s * p / area;
+      dg[k] = s * (dp / area - p * darea / (area * area));
+    }
+    out.g.block<1, 3>(row, layout.offset[d.nb0] + 3) += g[0].transpose();
+    out.g.block<1, 3>(row, layout.offset[d.nb1] + 3) += g[1].transpose();
+    out.g.block<1, 3>(row, layout.offset[d.linker] + 3) -= (g[0] + g[1]).transpose();
+    out.bias[row] = dg[0].dot(bodies[d.nb0].omega) + dg[1].dot(bodies[d.nb1].omega) - (dg[0] + dg[1]).dot(lm.omega);
+    ++row;
+  }
+}
+
+}  // namespace ringsim
