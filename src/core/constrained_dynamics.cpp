@@ -97,6 +97,12 @@ Eigen::VectorXd add_constraint_loads(const std::vector<CompliantBody>& bodies, c
   return lambda;
 }
 
+void cluster_loads(const CompliantCluster& cluster, const JointSet& joints, std::vector<Vec3>& force,
+                   std::vector<Vec3>& torque) {
+  compliant_loads(cluster, body_motions(cluster), true, force, torque);
+  add_constraint_loads(cluster.bodies, joints, force, torque);
+}
+
 int internal_dof(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
   const MassMatrix m(bodies);
   JointRows rows;

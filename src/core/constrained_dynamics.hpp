@@ -76,6 +76,14 @@ Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, cons
 Eigen::VectorXd add_constraint_loads(const std::vector<CompliantBody>& bodies, const JointSet& joints,
                                      std::vector<Vec3>& force, std::vector<Vec3>& torque);
 
+// Every load on the bodies of a cluster at its present state: the compliant
+// force field (core/compliant.hpp, dampers included) plus the constraint
+// loads of `joints`. The one definition of the accelerations, for the
+// integrator's right-hand side and the slice-error check (slice_end): with
+// no joints it is compliant_loads.
+void cluster_loads(const CompliantCluster& cluster, const JointSet& joints, std::vector<Vec3>& force,
+                   std::vector<Vec3>& torque);
+
 // Internal degrees of freedom: velocity coordinates (3 per sphere, 6 per
 // linker) - rank(G) - 6 at the present pose. 0: the cluster can only move
 // rigidly (carry it as one rigid body). A single sphere gives -3 (no rotation).

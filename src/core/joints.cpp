@@ -49,6 +49,39 @@ HeldDihedral make_held_dihedral(const std::vector<CompliantBody>& bodies, int li
   return {linker, nb0, nb0_end, nb1, nb1_end, phi};
 }
 
+std::string check_joints(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+  const int n = int(bodies.size());
+  auto is = [&](int i, Shape s) { return i >= 0 && i < n && bodies[i].shape == s; };
+  auto end_ok = [](int e) { return e == 0 || e == 1; };
+  for (std::size_t k = 0; k < joints.balls.size(); ++k) {
+    const BallJoint& j = joints.balls[k];
+    if (!is(j.sphere, Shape::Sphere) || !is(j.linker, Shape::Linker)) {
+      return "ball joint " + std::to_string(k) + ": sphere " + std::to_string(j.sphere) + ", linker " +
+             std::to_string(j.linker) + " of " + std::to_string(n) + " bodies";
+    }
+  }
+  for (std::size_t k = 0; k < joints.angles.size(); ++k) {
+    const HeldAngle& a = joints.angles[k];
+    if (!is(a.linker_a, Shape::Linker) || !is(a.linker_b, Shape::Linker) || !end_ok(a.end_a) || !end_ok(a.end_b)) {
+      return "held angle " + std::to_string(k) + ": linkers " + std::to_string(a.linker_a) + ", " +
+             std::to_string(a.linker_b) + " of " + std::to_string(n) + " bodies";
+    }
+    if (!held_angle_defined(a.theta0)) {
+      return "held angle " + std::to_string(k) + ": theta0 = " + std::to_string(a.theta0) +
+             " rad is within 2 degrees of 0 or 180";
+    }
+  }
+  for (std::size_t k = 0; k < joints.dihedrals.size(); ++k) {
+    const HeldDihedral& d = joints.dihedrals[k];
+    if (!is(d.linker, Shape::Linker) || !is(d.nb0, Shape::Linker) || !is(d.nb1, Shape::Linker) ||
+        !end_ok(d.nb0_end) || !end_ok(d.nb1_end)) {
+      return "held dihedral " + std::to_string(k) + ": linkers " + std::to_string(d.linker) + ", " +
+             std::to_string(d.nb0) + ", " + std::to_string(d.nb1) + " of " + std::to_string(n) + " bodies";
+    }
+  }
+  return "";
+}
+
 bool held_angle_defined(double theta0) { return std::sin(theta0) >= kHeldMinSine; }
 
 bool held_dihedral_defined(const Vec3& u, const Vec3& n0, const Vec3& n1) {

@@ -40,6 +40,7 @@
 // vector r fixed in it at omega x r; d(f)/dt = G_omega . omega defines the
 // omega columns.
 
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -88,6 +89,10 @@ HeldAngle make_held_angle(const std::vector<CompliantBody>& bodies, int sphere, 
                           int linker_b, int end_b);
 HeldDihedral make_held_dihedral(const std::vector<CompliantBody>& bodies, int linker, int nb0, int nb0_end,
                                 int nb1, int nb1_end);
+
+// Empty when every index of `joints` names a body of the right shape (a
+// sphere, linkers, ends 0 or 1) and every held angle is defined; else what is wrong.
+std::string check_joints(const std::vector<CompliantBody>& bodies, const JointSet& joints);
 
 // Predicates for the bond rules: can this value be held? (unit axes; angle in radians)
 bool held_angle_defined(double theta0);
