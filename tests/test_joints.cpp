@@ -97,7 +97,7 @@ TEST(Joints, VelocityProductTermMatchesFiniteDifferences) {
   const Eigen::VectorXd nu = velocity_vector(a.cluster.bodies, layout);
   JointRows rows;
   joint_rows(a.cluster.bodies, layout, a.joints, rows);
-  EXPECT_GT(rows.bias.cwiseAbs().minCoeff(), 1e-3);  // every row has a bias to check
+  EXPECT_GT(rows.bias.cwiseAbs().minCoeff(), 1e-4);  // every row has a bias to check
 
   const double h = 1e-4;
   const Eigen::VectorXd c0 = joint_residual(a.cluster.bodies, a.joints);

@@ -8,17 +8,10 @@
 namespace ringsim {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 Mat3 skew(const Vec3& r) {
   Mat3 s;
   s << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
   return s;
-}
-
-double wrap_angle(double x) {
-  x = std::remainder(x, 2.0 * kPi);  // in [-pi, pi]
-  return x <= -kPi ? x + 2.0 * kPi : x;
 }
 
 Vec3 outward(const CompliantBody& linker, int end) { return outward_axis(linker.axis(), end); }
@@ -95,7 +88,7 @@ double min_joint_sine(const std::vector<CompliantBody>& bodies, const JointSet& 
   }
   for (const HeldDihedral& d : joints.dihedrals) {
     const Vec3 u = bodies[d.linker].axis();
-    m = std::min({m, u.cross(bodies[d.nb0].axis()).norm(), u.cross(bodies[d.nb1].axis()).norm()});
+    m = std::min(m, std::max(u.cross(bodies[d.nb0].axis()).norm(), u.cross(bodies[d.nb1].axis()).norm()));
   }
   return m;
 }
@@ -148,9 +141,9 @@ Eigen::VectorXd joint_residual(const std::vector<CompliantBody>& bodies, const J
     c[row++] = (std::cos(a.theta0) - na.dot(nb)) / std::sin(a.theta0);
   }
   for (const HeldDihedral& d : joints.dihedrals) {
-    const double phi =
-        dihedral(bodies[d.linker].axis(), outward(bodies[d.nb0], d.nb0_end), outward(bodies[d.nb1], d.nb1_end));
-    c[row++] = wrap_angle(phi - d.phi0);
+    const Vec3 u = bodies[d.linker].axis();
+    const Vec3 n0 = outward(bodies[d.nb0], d.nb0_end), n1 = outward(bodies[d.nb1], d.nb1_end);
+    c[row++] = std::cos(d.phi0) * u.dot(n0.cross(n1)) - std::sin(d.phi0) * (n0.dot(n1) - u.dot(n0) * u.dot(n1));
   }
   return c;
 }
@@ -190,36 +183,38 @@ void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& 
     ++row;
   }
 
-  // Held dihedral (core/compliant.cpp, dihedral_geom; Blondel & Karplus,
-  // J. Comput. Chem. 17, 1132 (1996), written for rotations of rigid axes):
-  //   G0 = -p0 / A0, p0 = u - (u.n0) n0, A0 = |u x n0|^2 = 1 - (u.n0)^2,
-  //   G1 = +p1 / A1, GM = -(G0 + G1) (phi is invariant under a global turn).
-  // Bias: sum_i G_i' . omega_i with, for k = 0, 1 (s_0 = -1, s_1 = +1),
-  //   c_k = u.n_k, c_k' = u'.n_k + u.n_k', p_k' = u' - c_k' n_k - c_k n_k',
-  //   A_k' = -2 c_k c_k',  G_k' = s_k (p_k' / A_k - p_k A_k' / A_k^2),
-  // u' = omega_M x u, n_k' = omega_k x n_k.
+  // Held dihedral, C = cos(phi0) A - sin(phi0) B with the triple product
+  // A = u.(n0 x n1) = |a||b| sin(phi) and B = (u x n0).(u x n1)
+  // = n0.n1 - (u.n0)(u.n1) = |a||b| cos(phi) (a = u x n0, b = u x n1). A
+  // rotation omega_k of the body carrying vector w moves it at omega_k x w, and
+  // x.(y x z) is invariant under cyclic shifts, so with c0 = u.n0, c1 = u.n1:
+  //   dA: omega_M . u x (n0 x n1) + omega_0 . n0 x (n1 x u) + omega_1 . n1 x (u x n0),
+  //   dB: omega_0 . (n0 x n1 - c1 n0 x u) + omega_1 . (n1 x n0 - c0 n1 x u)
+  //       - omega_M . (c1 u x n0 + c0 u x n1).
+  // Bias: A and B are polynomials in u, n0, n1, so (dG/dt) nu = C'' along the
+  // motion at constant omegas (w' = omega x w, w'' = omega x w'), by the
+  // product rule.
   for (const HeldDihedral& d : joints.dihedrals) {
-    const CompliantBody& lm = bodies[d.linker];
-    const Vec3 u = lm.axis();
-    const Vec3 du = lm.omega.cross(u);
-    const int nb[2] = {d.nb0, d.nb1};
-    const int end[2] = {d.nb0_end, d.nb1_end};
-    Vec3 g[2], dg[2];
-    for (int k = 0; k < 2; ++k) {
-      const CompliantBody& ln = bodies[nb[k]];
-      const Vec3 n = outward(ln, end[k]);
-      const Vec3 dn = ln.omega.cross(n);
-      const double s = k == 0 ? -1.0 : 1.0;
-      const double c = u.dot(n), dc = du.dot(n) + u.dot(dn);
-      const double area = u.cross(n).squaredNorm(), darea = -2.0 * c * dc;
-      const Vec3 p = u - c * n, dp = du - dc * n - c * dn;
-      g[k] = s * p / area;
-      dg[k] = s * (dp / area - p * darea / (area * area));
-    }
-    out.g.block<1, 3>(row, layout.offset[d.nb0] + 3) += g[0].transpose();
-    out.g.block<1, 3>(row, layout.offset[d.nb1] + 3) += g[1].transpose();
-    out.g.block<1, 3>(row, layout.offset[d.linker] + 3) -= (g[0] + g[1]).transpose();
-    out.bias[row] = dg[0].dot(bodies[d.nb0].omega) + dg[1].dot(bodies[d.nb1].omega) - (dg[0] + dg[1]).dot(lm.omega);
+    const CompliantBody &lm = bodies[d.linker], &l0 = bodies[d.nb0], &l1 = bodies[d.nb1];
+    const Vec3 u = lm.axis(), n0 = outward(l0, d.nb0_end), n1 = outward(l1, d.nb1_end);
+    const double cp = std::cos(d.phi0), sp = std::sin(d.phi0);
+    const double c0 = u.dot(n0), c1 = u.dot(n1);
+    const Vec3 ga_m = u.cross(n0.cross(n1)), ga_0 = n0.cross(n1.cross(u)), ga_1 = n1.cross(u.cross(n0));
+    const Vec3 gb_0 = n0.cross(n1) - c1 * n0.cross(u), gb_1 = n1.cross(n0) - c0 * n1.cross(u);
+    const Vec3 gb_m = -(c1 * u.cross(n0) + c0 * u.cross(n1));
+    out.g.block<1, 3>(row, layout.offset[d.linker] + 3) += (cp * ga_m - sp * gb_m).transpose();
+    out.g.block<1, 3>(row, layout.offset[d.nb0] + 3) += (cp * ga_0 - sp * gb_0).transpose();
+    out.g.block<1, 3>(row, layout.offset[d.nb1] + 3) += (cp * ga_1 - sp * gb_1).transpose();
+
+    const Vec3 du = lm.omega.cross(u), dn0 = l0.omega.cross(n0), dn1 = l1.omega.cross(n1);
+    const Vec3 ddu = lm.omega.cross(du), ddn0 = l0.omega.cross(dn0), ddn1 = l1.omega.cross(dn1);
+    const double dda = ddu.dot(n0.cross(n1)) + u.dot(ddn0.cross(n1)) + u.dot(n0.cross(ddn1)) +
+                       2.0 * (du.dot(dn0.cross(n1)) + du.dot(n0.cross(dn1)) + u.dot(dn0.cross(dn1)));
+    const double dc0 = du.dot(n0) + u.dot(dn0), dc1 = du.dot(n1) + u.dot(dn1);
+    const double ddc0 = ddu.dot(n0) + 2.0 * du.dot(dn0) + u.dot(ddn0);
+    const double ddc1 = ddu.dot(n1) + 2.0 * du.dot(dn1) + u.dot(ddn1);
+    const double ddb = ddn0.dot(n1) + 2.0 * dn0.dot(dn1) + n0.dot(ddn1) - (ddc0 * c1 + 2.0 * dc0 * dc1 + c0 * ddc1);
+    out.bias[row] = cp * dda - sp * ddb;
     ++row;
   }
 }

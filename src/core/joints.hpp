@@ -19,13 +19,22 @@
 //    hold; with the study's filter, theta0 = 90 +- 5 degrees, it never comes up);
 //  - HeldDihedral (1 row): the dihedral phi about linker M between the outward
 //    axes n0, n1 of its neighbours (dihedral_deg's convention, radians) held
-//    at phi0,
-//      C = wrap(phi - phi0) in (-pi, pi].
-//    Its gradient has size 1 / |u x n|: it is undefined where a neighbour is
-//    parallel to M's axis. held_dihedral_defined() refuses a hold within
-//    kHeldMinSine of that pose; min_joint_sine() reports how close a held pose
-//    has come (a held dihedral with a free bond angle, Scenario 3's filters,
-//    can swing a neighbour onto the axis: docs/ARTICULATED.md).
+//    at phi0, written with a = u x n0, b = u x n1 as
+//      C = |a| |b| sin(phi - phi0) = cos(phi0) u.(n0 x n1) - sin(phi0) (u x n0).(u x n1),
+//    a polynomial in the three axes. Why not C = phi - phi0: its gradient
+//    has size 1/|a| (1/|b|) and blows up where a neighbour turns parallel to
+//    M's axis; with a held dihedral and a free bond angle (Scenario 3's
+//    filters) a planar chain swings a neighbour through that pose within a
+//    few time units (measured: every one of 6 seeds within t < 27, where
+//    the integrator then stalled), and there phi jumps by pi (cis <-> trans).
+//    The polynomial's gradient stays finite and nonzero there (its size is
+//    ~ max(|a|, |b|)), its zero set holds phi0 and phi0 + pi, the two branches
+//    a planar swing passes between, and it vanishes only when both
+//    neighbours are parallel to the axis (codimension 4). Near the held pose
+//    C = |a||b| (phi - phi0) + O(dphi^3): radians times the two sines.
+//    held_dihedral_defined() refuses a hold whose phi0 cannot be measured
+//    (a neighbour within kHeldMinSine of the axis at the check);
+//    min_joint_sine() reports how close a held pose has come to a singular one.
 // Nothing else is held.
 //
 // Velocity coordinates (VelocityLayout), body by body in the cluster's
@@ -97,9 +106,10 @@ std::string check_joints(const std::vector<CompliantBody>& bodies, const JointSe
 // Predicates for the bond rules: can this value be held? (unit axes; angle in radians)
 bool held_angle_defined(double theta0);
 bool held_dihedral_defined(const Vec3& u, const Vec3& n0, const Vec3& n1);
-// The smallest of sin(theta) over the held angles and |u x n| over the held
-// dihedrals' neighbours at the present pose (1 when there are none): below
-// kHeldMinSine the holds are near their singular poses.
+// The smallest of sin(theta) over the held angles and of max(|u x n0|,
+// |u x n1|) over the held dihedrals at the present pose (1 when there are
+// none): the size of the smallest row's gradient, near 0 only near a
+// singular pose.
 double min_joint_sine(const std::vector<CompliantBody>& bodies, const JointSet& joints);
 
 // Offsets of each body's velocity coordinates (see the header).
