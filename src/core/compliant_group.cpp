@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/constrained_dynamics.hpp"
 #include "core/track.hpp"
 
 namespace ringsim {
@@ -66,10 +67,10 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const std::vector<Compl
 // omega = I^-1(u) L with I^-1 = 1/I_perp + (1/I_axial - 1/I_perp) u u^T, so
 // omega' = I^-1 tau + (1/I_axial - 1/I_perp) (u' (u.L) + u (u'.L)), u' = omega x u,
 // and u'' = omega' x u + omega x u'.
-SliceEnd slice_end(const CompliantCluster& c) {
+SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints) {
   const std::vector<BodyMotion> motion = body_motions(c);
   std::vector<Vec3> force, torque;
-  compliant_loads(c, motion, true, force, torque);
+  cluster_loads(c, joints, force, torque);
   SliceEnd e;
   e.bodies = c.bodies;
   e.center_accel.resize(c.bodies.size());

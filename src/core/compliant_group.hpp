@@ -29,7 +29,7 @@ struct SliceEnd {
   std::vector<CompliantBody> bodies;
   std::vector<Vec3> center_accel, axis_accel;
 };
-SliceEnd slice_end(const CompliantCluster& c);
+SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints = {});
 
 struct CompliantGroup {
   bool alive = false;

@@ -17,8 +17,10 @@
 #include <cstdlib>
 #include <limits>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
+#include "core/constrained_dynamics.hpp"
 #include "core/serial_vector_ops.hpp"
 
 namespace ringsim {
@@ -126,6 +128,10 @@ struct ClusterIntegrator::Impl {
   // Right-hand-side scratch (no allocation per call).
   std::vector<BodyMotion> motion;
   std::vector<Vec3> force, torque;
+  // Articulated: the joints, and the bodies' poses and velocities at the
+  // state being evaluated (the constraint rows need full orientations).
+  JointSet joints;
+  std::vector<CompliantBody> work;
   bool non_finite = false;
   double non_finite_t = 0.0;
   // BDF: the total momentum and the mass-weighted sum of positions of the
@@ -199,6 +205,7 @@ struct ClusterIntegrator::Impl {
       half_band = std::max(half_band, span({d.linker, d.nb0, d.nb1}));
     }
     motion.resize(cluster.bodies.size());
+    work = cluster.bodies;
   }
   int size_of(int b) const { return cluster.bodies[b].shape == Shape::Sphere ? kSphereSize : kLinkerSize; }
 
@@ -265,6 +272,18 @@ struct ClusterIntegrator::Impl {
       m.omega = L / b.i_perp + (1.0 / b.i_axial - 1.0 / b.i_perp) * L.dot(m.u) * m.u;
     }
     compliant_loads(cluster, motion, true, force, torque);
+    if (!joints.empty()) {
+      for (std::size_t i = 0; i < cluster.bodies.size(); ++i) {
+        const double* p = s + offset[i];
+        CompliantBody& w = work[i];
+        w.x = motion[i].x;
+        w.v = motion[i].v;
+        if (w.shape == Shape::Sphere) continue;
+        w.q = Quat(p[3], p[4], p[5], p[6]).normalized();
+        w.omega = motion[i].omega;
+      }
+      add_constraint_loads(work, joints, force, torque);
+    }
     for (std::size_t i = 0; i < cluster.bodies.size(); ++i) {
       const CompliantBody& b = cluster.bodies[i];
       const double* p = s + offset[i];
@@ -517,10 +536,12 @@ struct ClusterIntegrator::Impl {
   }
 };
 
-ClusterIntegrator::ClusterIntegrator(const CompliantCluster& cluster, double t0, const IntegratorOptions& options)
+ClusterIntegrator::ClusterIntegrator(const CompliantCluster& cluster, double t0, const IntegratorOptions& options,
+                                     JointSet joints)
     : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   m.cluster = cluster;
+  m.joints = std::move(joints);
   m.options = options;
   m.t = t0;
   m.failure.t = t0;
@@ -528,6 +549,8 @@ ClusterIntegrator::ClusterIntegrator(const CompliantCluster& cluster, double t0,
   if (!(options.rtol > 0.0) || !(options.atol > 0.0) || options.max_steps <= 0) {
     throw SundialsError("ClusterIntegrator: rtol, atol and max_steps must be > 0");
   }
+  const std::string bad = check_joints(cluster.bodies, m.joints);
+  if (!bad.empty()) throw SundialsError("ClusterIntegrator: " + bad);
   m.layout();
   m.create(t0);
 }
@@ -545,6 +568,12 @@ void ClusterIntegrator::reinit_at(double t) {
   impl_->t = t;
   impl_->restart();
 }
+PositionProjection ClusterIntegrator::project_onto_joints(double tolerance) {
+  PositionProjection r = project_positions(impl_->cluster.bodies, impl_->joints, tolerance);
+  impl_->restart();
+  return r;
+}
+const JointSet& ClusterIntegrator::joints() const { return impl_->joints; }
 const IntegratorStats& ClusterIntegrator::stats() const { return impl_->stats; }
 const IntegratorOptions& ClusterIntegrator::options() const { return impl_->options; }
 int ClusterIntegrator::state_size() const { return impl_->n; }

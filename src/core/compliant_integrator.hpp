@@ -43,6 +43,13 @@
 // creation or option calls failing) throw SundialsError naming the function
 // and its return flag; every SUNDIALS return code is checked.
 //
+// Articulated clusters (core/joints.hpp, docs/ARTICULATED.md): with a
+// nonempty JointSet the right-hand side adds the constraint loads G^T lambda
+// after the force field (cluster_loads, core/constrained_dynamics.hpp), so the
+// flow keeps C'' = 0; nothing pulls C or C' back (no Baumgarte terms), so the
+// caller removes the drift with project_onto_joints() where the state is the
+// integrator's own (slice ends); it restarts the method.
+//
 // Events: advance_to(t) lands exactly on t (SUNDIALS stop time), so the state
 // is the solver's own, not an interpolation. An impulse: advance_to(t_event),
 // change velocities through state(), reinit() (CVodeReInit / ERKStepReInit:
@@ -54,6 +61,8 @@
 #include <string>
 
 #include "core/compliant.hpp"
+#include "core/joint_projection.hpp"
+#include "core/joints.hpp"
 
 namespace ringsim {
 
@@ -120,7 +129,8 @@ class SundialsError : public std::runtime_error {
 
 class ClusterIntegrator {
  public:
-  ClusterIntegrator(const CompliantCluster& cluster, double t0, const IntegratorOptions& options = {});
+  ClusterIntegrator(const CompliantCluster& cluster, double t0, const IntegratorOptions& options = {},
+                    JointSet joints = {});
   ~ClusterIntegrator();
   ClusterIntegrator(ClusterIntegrator&&) noexcept;
   ClusterIntegrator& operator=(ClusterIntegrator&&) noexcept;
@@ -140,6 +150,12 @@ class ClusterIntegrator {
   // time()): restart the method there (an impulse at an earlier time, read
   // from an interpolant).
   void reinit_at(double t);
+
+  // Articulated: projects the state onto the joints (positions by
+  // Gauss-Newton to max |C| <= tolerance, then velocities) and restarts the
+  // method there (a reinit); returns the sizes of the correction.
+  PositionProjection project_onto_joints(double tolerance);
+  const JointSet& joints() const;
 
   const IntegratorStats& stats() const;
   const IntegratorOptions& options() const;

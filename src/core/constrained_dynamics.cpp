@@ -1,0 +1,114 @@
+#include "core/constrained_dynamics.hpp"
+
+namespace ringsim {
+
+MassMatrix::MassMatrix(const std::vector<CompliantBody>& bodies)
+    : layout(bodies), mass(bodies.size()), linker(bodies.size()), inertia(bodies.size()), inv_inertia(bodies.size()) {
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const CompliantBody& b = bodies[i];
+    mass[i] = b.mass;
+    linker[i] = b.shape == Shape::Linker;
+    if (b.shape != Shape::Linker) {
+      inertia[i] = inv_inertia[i] = Mat3::Identity();
+      continue;
+    }
+    const Vec3 u = b.axis();
+    const Mat3 uu = u * u.transpose();
+    inertia[i] = b.i_perp * Mat3::Identity() + (b.i_axial - b.i_perp) * uu;
+    inv_inertia[i] = Mat3::Identity() / b.i_perp + (1.0 / b.i_axial - 1.0 / b.i_perp) * uu;
+  }
+}
+
+Eigen::VectorXd MassMatrix::times(const Eigen::VectorXd& nu) const {
+  Eigen::VectorXd f(layout.size);
+  for (std::size_t i = 0; i < mass.size(); ++i) {
+    const int o = layout.offset[i];
+    f.segment<3>(o) = mass[i] * nu.segment<3>(o);
+    if (linker[i]) f.segment<3>(o + 3) = inertia[i] * nu.segment<3>(o + 3);
+  }
+  return f;
+}
+
+Eigen::MatrixXd MassMatrix::inverse_times(const Eigen::MatrixXd& f) const {
+  Eigen::MatrixXd x(f.rows(), f.cols());
+  for (std::size_t i = 0; i < mass.size(); ++i) {
+    const int o = layout.offset[i];
+    x.middleRows(o, 3) = f.middleRows(o, 3) / mass[i];
+    if (linker[i]) x.middleRows(o + 3, 3) = inv_inertia[i] * f.middleRows(o + 3, 3);
+  }
+  return x;
+}
+
+Eigen::VectorXd MassMatrix::inverse_times(const Eigen::VectorXd& f) const {
+  return inverse_times(Eigen::MatrixXd(f)).col(0);
+}
+
+Eigen::MatrixXd MassMatrix::dense() const {
+  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(layout.size, layout.size);
+  for (std::size_t i = 0; i < mass.size(); ++i) {
+    const int o = layout.offset[i];
+    m.block<3, 3>(o, o) = mass[i] * Mat3::Identity();
+    if (linker[i]) m.block<3, 3>(o + 3, o + 3) = inertia[i];
+  }
+  return m;
+}
+
+MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m) : rows_(int(g.rows())) {
+  minv_gt_ = m.inverse_times(Eigen::MatrixXd(g.transpose()));
+  s_ = g * minv_gt_;
+  if (rows_ == 0) return;
+  cod_.setThreshold(kRankThreshold);
+  cod_.compute(s_);
+}
+
+Eigen::VectorXd MultiplierSolve::solve(const Eigen::VectorXd& rhs) const {
+  if (rows_ == 0) return Eigen::VectorXd(0);
+  return cod_.solve(rhs);
+}
+
+Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, const MassMatrix& m,
+                                  const std::vector<Vec3>& force, const std::vector<Vec3>& torque) {
+  Eigen::VectorXd f(m.layout.size);
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const int o = m.layout.offset[i];
+    f.segment<3>(o) = force[i];
+    if (bodies[i].shape != Shape::Linker) continue;
+    const Vec3& w = bodies[i].omega;
+    f.segment<3>(o + 3) = torque[i] - w.cross(m.inertia[i] * w);
+  }
+  return f;
+}
+
+Eigen::VectorXd add_constraint_loads(const std::vector<CompliantBody>& bodies, const JointSet& joints,
+                                     std::vector<Vec3>& force, std::vector<Vec3>& torque) {
+  if (joints.empty()) return Eigen::VectorXd(0);
+  const MassMatrix m(bodies);
+  JointRows rows;
+  joint_rows(bodies, m.layout, joints, rows);
+  const MultiplierSolve solve(rows.g, m);
+  const Eigen::VectorXd f = generalized_force(bodies, m, force, torque);
+  const Eigen::VectorXd lambda = solve.solve(-rows.bias - rows.g * m.inverse_times(f));
+  const Eigen::VectorXd load = rows.g.transpose() * lambda;
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const int o = m.layout.offset[i];
+    force[i] += load.segment<3>(o);
+    if (bodies[i].shape == Shape::Linker) torque[i] += load.segment<3>(o + 3);
+  }
+  return lambda;
+}
+
+void cluster_loads(const CompliantCluster& cluster, const JointSet& joints, std::vector<Vec3>& force,
+                   std::vector<Vec3>& torque) {
+  compliant_loads(cluster, body_motions(cluster), true, force, torque);
+  add_constraint_loads(cluster.bodies, joints, force, torque);
+}
+
+int internal_dof(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+  const MassMatrix m(bodies);
+  JointRows rows;
+  joint_rows(bodies, m.layout, joints, rows);
+  const MultiplierSolve solve(rows.g, m);
+  return m.layout.size - solve.rank() - 6;
+}
+
+}  // namespace ringsim

@@ -1,0 +1,92 @@
+#pragma once
+// Constrained rigid-body dynamics of one articulated cluster in maximal
+// coordinates (docs/ARTICULATED.md): the mass matrix, the rank-revealing
+// multiplier solve, the constraint loads that keep C'' = 0, and the count of
+// the cluster's internal degrees of freedom.
+//
+// Lagrange-multiplier form (Baraff 1996, "Linear-time dynamics using Lagrange
+// multipliers"; Featherstone, "Rigid Body Dynamics Algorithms", ch. 8):
+//   M nu' = f + G^T lambda,   G nu' + (dG/dt) nu = 0
+//   =>  S lambda = -(dG/dt) nu - G M^-1 f,   S = G M^-1 G^T,
+// with nu the velocity coordinates of core/joints.hpp, M block-diagonal
+// (m 1 per body, the world inertia tensor I = I_perp 1 + (I_axial - I_perp) u u^T
+// per linker) and f the applied forces and, per linker, tau - omega x (I omega)
+// (the gyroscopic term of d(I omega)/dt = tau in the world frame).
+// S is singular when rows are redundant (a closed square ring is
+// over-constrained: 32 rows, rank 30). The solve is Eigen's
+// CompleteOrthogonalDecomposition with the pivot threshold kRankThreshold
+// (relative to the largest pivot): the minimum-norm lambda, exact when the
+// right-hand side lies in the range of S (consistent redundant rows), least
+// squares otherwise. Rank decisions elsewhere (internal_dof) use the same
+// threshold on the same matrix.
+//
+// Dense throughout: a cluster has at most a few tens of bodies before it is
+// rigid or closed; an O(n) solver for open chains (Baraff's) is future work.
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/QR>
+
+#include "core/joints.hpp"
+
+namespace ringsim {
+
+// Pivots below kRankThreshold x the largest count as zero (S's pivots scale
+// as (size of a row)^2 / mass; the rows are of unit size: lengths and radians).
+constexpr double kRankThreshold = 1e-10;
+
+// Block-diagonal mass matrix in the velocity layout (world frame, present pose).
+struct MassMatrix {
+  VelocityLayout layout;
+  std::vector<double> mass;
+  std::vector<char> linker;                // 1: the body has omega columns
+  std::vector<Mat3> inertia, inv_inertia;  // linkers; identity for spheres (unused)
+
+  explicit MassMatrix(const std::vector<CompliantBody>& bodies);
+  Eigen::VectorXd times(const Eigen::VectorXd& nu) const;           // M nu
+  Eigen::VectorXd inverse_times(const Eigen::VectorXd& f) const;    // M^-1 f
+  Eigen::MatrixXd inverse_times(const Eigen::MatrixXd& f) const;    // M^-1 F (column by column)
+  Eigen::MatrixXd dense() const;
+};
+
+// S = G M^-1 G^T factorized once, solved for any right-hand side.
+class MultiplierSolve {
+ public:
+  MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m);
+  Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;  // minimum-norm lambda of S lambda = rhs
+  int rank() const { return rows_ == 0 ? 0 : int(cod_.rank()); }
+  const Eigen::MatrixXd& minv_gt() const { return minv_gt_; }  // M^-1 G^T
+  const Eigen::MatrixXd& s() const { return s_; }
+
+ private:
+  int rows_;
+  Eigen::MatrixXd minv_gt_, s_;
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod_;
+};
+
+// Generalized applied force: (F_i) per sphere, (F_i, tau_i - omega_i x I_i omega_i) per linker.
+Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, const MassMatrix& m,
+                                  const std::vector<Vec3>& force, const std::vector<Vec3>& torque);
+
+// The constraint loads of the joints at the present pose and velocities
+// (added to force and torque: torque about each body's centre, world frame),
+// given the applied force and torque on every body: after the addition, the
+// accelerations M^-1 (f + G^T lambda) keep C'' = 0. Returns lambda.
+Eigen::VectorXd add_constraint_loads(const std::vector<CompliantBody>& bodies, const JointSet& joints,
+                                     std::vector<Vec3>& force, std::vector<Vec3>& torque);
+
+// Every load on the bodies of a cluster at its present state: the compliant
+// force field (core/compliant.hpp, dampers included) plus the constraint
+// loads of `joints`. The one definition of the accelerations, for the
+// integrator's right-hand side and the slice-error check (slice_end): with
+// no joints it is compliant_loads.
+void cluster_loads(const CompliantCluster& cluster, const JointSet& joints, std::vector<Vec3>& force,
+                   std::vector<Vec3>& torque);
+
+// Internal degrees of freedom: velocity coordinates (3 per sphere, 6 per
+// linker) - rank(G) - 6 at the present pose. 0: the cluster can only move
+// rigidly (carry it as one rigid body). A single sphere gives -3 (no rotation).
+int internal_dof(const std::vector<CompliantBody>& bodies, const JointSet& joints);
+
+}  // namespace ringsim

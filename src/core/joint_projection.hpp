@@ -1,0 +1,49 @@
+#pragma once
+// Projections of an articulated cluster's state onto its joints
+// (docs/ARTICULATED.md): velocities onto G nu = 0, positions onto C = 0.
+// No Baumgarte terms anywhere: the integrator's drift is removed by these
+// projections, which a caller runs where the state is the integrator's own
+// (slice ends), and a new bond's impulse is the velocity projection.
+//
+// Both are minimum-norm corrections in the metric of the mass matrix M
+// (core/constrained_dynamics.hpp), so they change the motion as little as the
+// kinetic energy can measure:
+//  - velocities: nu' = nu - M^-1 G^T S^+ G nu (S = G M^-1 G^T), the
+//    M-orthogonal projection onto the null space of G. It is the impulse
+//    G^T mu (mu = -S^+ G nu) of perfectly inelastic joints: internal (the
+//    joints are invariant under global translation and rotation, so the
+//    impulses sum to zero force and zero torque about any point: momentum and
+//    angular momentum are kept) and dissipative only in the held directions,
+//    T' = T - (G nu)^T S^+ (G nu) / 2 <= T;
+//  - positions: Gauss-Newton steps dnu = -M^-1 G^T S^+ C applied as a
+//    displacement (core/joints.hpp, displace), until max |C| <= tolerance,
+//    then the velocity projection at the new pose. A step keeps the centre of
+//    mass (sum of m dx = 0) and the total angular momentum's first-order
+//    change is zero for the same reason as above.
+
+#include <vector>
+
+#include "core/joints.hpp"
+
+namespace ringsim {
+
+struct VelocityProjection {
+  double residual_before = 0.0;  // max |G nu| before
+  double residual_after = 0.0;   // after
+  double energy_change = 0.0;    // kinetic energy after - before (<= 0)
+};
+VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints);
+
+struct PositionProjection {
+  double residual_before = 0.0;  // max |C| before
+  double residual_after = 0.0;   // after the last step
+  double displacement = 0.0;     // M-norm of the total correction, sqrt(sum dnu^T M dnu) over steps
+  int iterations = 0;            // Gauss-Newton steps taken
+  bool converged = false;        // residual_after <= tolerance
+  VelocityProjection velocities; // the velocity projection that follows
+};
+// Gauss-Newton on positions (at most max_iterations steps), then velocities.
+PositionProjection project_positions(std::vector<CompliantBody>& bodies, const JointSet& joints, double tolerance,
+                                     int max_iterations = 8);
+
+}  // namespace ringsim

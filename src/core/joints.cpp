@@ -1,0 +1,222 @@
+#include "core/joints.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/bond_rules.hpp"
+
+namespace ringsim {
+namespace {
+
+Mat3 skew(const Vec3& r) {
+  Mat3 s;
+  s << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
+  return s;
+}
+
+Vec3 outward(const CompliantBody& linker, int end) { return outward_axis(linker.axis(), end); }
+
+// Dihedral about unit u between unit n0, n1 (dihedral_deg's convention, in
+// radians): phi = atan2(u.(a x b), a.b), a = u x n0, b = u x n1.
+double dihedral(const Vec3& u, const Vec3& n0, const Vec3& n1) {
+  const Vec3 a = u.cross(n0), b = u.cross(n1);
+  return std::atan2(u.dot(a.cross(b)), a.dot(b));
+}
+
+}  // namespace
+
+BallJoint make_ball_joint(const std::vector<CompliantBody>& bodies, int sphere, int linker) {
+  const CompliantBody& l = bodies[linker];
+  return {sphere, linker, l.q.conjugate() * (bodies[sphere].x - l.x)};
+}
+
+HeldAngle make_held_angle(const std::vector<CompliantBody>& bodies, int sphere, int linker_a, int end_a,
+                          int linker_b, int end_b) {
+  const Vec3 na = outward(bodies[linker_a], end_a), nb = outward(bodies[linker_b], end_b);
+  return {sphere, linker_a, end_a, linker_b, end_b, std::atan2(na.cross(nb).norm(), na.dot(nb))};
+}
+
+HeldDihedral make_held_dihedral(const std::vector<CompliantBody>& bodies, int linker, int nb0, int nb0_end,
+                                int nb1, int nb1_end) {
+  const double phi = dihedral(bodies[linker].axis(), outward(bodies[nb0], nb0_end), outward(bodies[nb1], nb1_end));
+  return {linker, nb0, nb0_end, nb1, nb1_end, phi};
+}
+
+std::string check_joints(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+  const int n = int(bodies.size());
+  auto is = [&](int i, Shape s) { return i >= 0 && i < n && bodies[i].shape == s; };
+  auto end_ok = [](int e) { return e == 0 || e == 1; };
+  for (std::size_t k = 0; k < joints.balls.size(); ++k) {
+    const BallJoint& j = joints.balls[k];
+    if (!is(j.sphere, Shape::Sphere) || !is(j.linker, Shape::Linker)) {
+      return "ball joint " + std::to_string(k) + ": sphere " + std::to_string(j.sphere) + ", linker " +
+             std::to_string(j.linker) + " of " + std::to_string(n) + " bodies";
+    }
+  }
+  for (std::size_t k = 0; k < joints.angles.size(); ++k) {
+    const HeldAngle& a = joints.angles[k];
+    if (!is(a.linker_a, Shape::Linker) || !is(a.linker_b, Shape::Linker) || !end_ok(a.end_a) || !end_ok(a.end_b)) {
+      return "held angle " + std::to_string(k) + ": linkers " + std::to_string(a.linker_a) + ", " +
+             std::to_string(a.linker_b) + " of " + std::to_string(n) + " bodies";
+    }
+    if (!held_angle_defined(a.theta0)) {
+      return "held angle " + std::to_string(k) + ": theta0 = " + std::to_string(a.theta0) +
+             " rad is within 2 degrees of 0 or 180";
+    }
+  }
+  for (std::size_t k = 0; k < joints.dihedrals.size(); ++k) {
+    const HeldDihedral& d = joints.dihedrals[k];
+    if (!is(d.linker, Shape::Linker) || !is(d.nb0, Shape::Linker) || !is(d.nb1, Shape::Linker) ||
+        !end_ok(d.nb0_end) || !end_ok(d.nb1_end)) {
+      return "held dihedral " + std::to_string(k) + ": linkers " + std::to_string(d.linker) + ", " +
+             std::to_string(d.nb0) + ", " + std::to_string(d.nb1) + " of " + std::to_string(n) + " bodies";
+    }
+  }
+  return "";
+}
+
+bool held_angle_defined(double theta0) { return std::sin(theta0) >= kHeldMinSine; }
+
+bool held_dihedral_defined(const Vec3& u, const Vec3& n0, const Vec3& n1) {
+  return u.cross(n0).norm() >= kHeldMinSine && u.cross(n1).norm() >= kHeldMinSine;
+}
+
+double min_joint_sine(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+  double m = 1.0;
+  for (const HeldAngle& a : joints.angles) {
+    m = std::min(m, outward(bodies[a.linker_a], a.end_a).cross(outward(bodies[a.linker_b], a.end_b)).norm());
+  }
+  for (const HeldDihedral& d : joints.dihedrals) {
+    const Vec3 u = bodies[d.linker].axis();
+    m = std::min(m, std::max(u.cross(bodies[d.nb0].axis()).norm(), u.cross(bodies[d.nb1].axis()).norm()));
+  }
+  return m;
+}
+
+VelocityLayout::VelocityLayout(const std::vector<CompliantBody>& bodies) {
+  offset.resize(bodies.size());
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    offset[i] = size;
+    size += width(bodies[i].shape);
+  }
+}
+
+Eigen::VectorXd velocity_vector(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout) {
+  Eigen::VectorXd nu(layout.size);
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    nu.segment<3>(layout.offset[i]) = bodies[i].v;
+    if (bodies[i].shape == Shape::Linker) nu.segment<3>(layout.offset[i] + 3) = bodies[i].omega;
+  }
+  return nu;
+}
+
+void set_velocities(std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const Eigen::VectorXd& nu) {
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    bodies[i].v = nu.segment<3>(layout.offset[i]);
+    if (bodies[i].shape == Shape::Linker) bodies[i].omega = nu.segment<3>(layout.offset[i] + 3);
+  }
+}
+
+void displace(std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const Eigen::VectorXd& dnu) {
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    CompliantBody& b = bodies[i];
+    b.x += dnu.segment<3>(layout.offset[i]);
+    if (b.shape != Shape::Linker) continue;
+    const Vec3 w = dnu.segment<3>(layout.offset[i] + 3);
+    const double angle = w.norm();
+    if (angle > 0.0) b.q = (Eigen::AngleAxisd(angle, w / angle) * b.q).normalized();
+  }
+}
+
+Eigen::VectorXd joint_residual(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+  Eigen::VectorXd c(joints.rows());
+  int row = 0;
+  for (const BallJoint& j : joints.balls) {
+    const CompliantBody& l = bodies[j.linker];
+    c.segment<3>(row) = bodies[j.sphere].x - l.x - l.q * j.anchor;
+    row += 3;
+  }
+  for (const HeldAngle& a : joints.angles) {
+    const Vec3 na = outward(bodies[a.linker_a], a.end_a), nb = outward(bodies[a.linker_b], a.end_b);
+    c[row++] = (std::cos(a.theta0) - na.dot(nb)) / std::sin(a.theta0);
+  }
+  for (const HeldDihedral& d : joints.dihedrals) {
+    const Vec3 u = bodies[d.linker].axis();
+    const Vec3 n0 = outward(bodies[d.nb0], d.nb0_end), n1 = outward(bodies[d.nb1], d.nb1_end);
+    c[row++] = std::cos(d.phi0) * u.dot(n0.cross(n1)) - std::sin(d.phi0) * (n0.dot(n1) - u.dot(n0) * u.dot(n1));
+  }
+  return c;
+}
+
+void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
+                JointRows& out) {
+  const int m = joints.rows();
+  out.c = joint_residual(bodies, joints);
+  out.g.setZero(m, layout.size);
+  out.bias.setZero(m);
+  int row = 0;
+
+  // Ball joint: C' = v_S - v_L - omega_L x r = v_S - v_L + [r]x omega_L,
+  // r = R a; (dG/dt) nu = [r']x omega_L = (omega_L x r) x omega_L.
+  for (const BallJoint& j : joints.balls) {
+    const CompliantBody& l = bodies[j.linker];
+    const Vec3 r = l.q * j.anchor;
+    out.g.block<3, 3>(row, layout.offset[j.sphere]) += Mat3::Identity();
+    out.g.block<3, 3>(row, layout.offset[j.linker]) -= Mat3::Identity();
+    out.g.block<3, 3>(row, layout.offset[j.linker] + 3) += skew(r);
+    out.bias.segment<3>(row) = -l.omega.cross(l.omega.cross(r));
+    row += 3;
+  }
+
+  // Held angle: with c = n_A x n_B, d(n_A . n_B)/dt = (omega_A - omega_B) . c,
+  // so G_A = -c / s0, G_B = +c / s0 (s0 = sin theta0), and the bias is
+  // -c' . (omega_A - omega_B) / s0 with c' = (omega_A x n_A) x n_B + n_A x (omega_B x n_B).
+  for (const HeldAngle& a : joints.angles) {
+    const CompliantBody &la = bodies[a.linker_a], &lb = bodies[a.linker_b];
+    const Vec3 na = outward(la, a.end_a), nb = outward(lb, a.end_b);
+    const double s0 = std::sin(a.theta0);
+    const Vec3 c = na.cross(nb);
+    out.g.block<1, 3>(row, layout.offset[a.linker_a] + 3) -= c.transpose() / s0;
+    out.g.block<1, 3>(row, layout.offset[a.linker_b] + 3) += c.transpose() / s0;
+    const Vec3 dc = la.omega.cross(na).cross(nb) + na.cross(lb.omega.cross(nb));
+    out.bias[row] = -dc.dot(la.omega - lb.omega) / s0;
+    ++row;
+  }
+
+  // Held dihedral, C = cos(phi0) A - sin(phi0) B with the triple product
+  // A = u.(n0 x n1) = |a||b| sin(phi) and B = (u x n0).(u x n1)
+  // = n0.n1 - (u.n0)(u.n1) = |a||b| cos(phi) (a = u x n0, b = u x n1). A
+  // rotation omega_k of the body carrying vector w moves it at omega_k x w, and
+  // x.(y x z) is invariant under cyclic shifts, so with c0 = u.n0, c1 = u.n1:
+  //   dA: omega_M . u x (n0 x n1) + omega_0 . n0 x (n1 x u) + omega_1 . n1 x (u x n0),
+  //   dB: omega_0 . (n0 x n1 - c1 n0 x u) + omega_1 . (n1 x n0 - c0 n1 x u)
+  //       - omega_M . (c1 u x n0 + c0 u x n1).
+  // Bias: A and B are polynomials in u, n0, n1, so (dG/dt) nu = C'' along the
+  // motion at constant omegas (w' = omega x w, w'' = omega x w'), by the
+  // product rule.
+  for (const HeldDihedral& d : joints.dihedrals) {
+    const CompliantBody &lm = bodies[d.linker], &l0 = bodies[d.nb0], &l1 = bodies[d.nb1];
+    const Vec3 u = lm.axis(), n0 = outward(l0, d.nb0_end), n1 = outward(l1, d.nb1_end);
+    const double cp = std::cos(d.phi0), sp = std::sin(d.phi0);
+    const double c0 = u.dot(n0), c1 = u.dot(n1);
+    const Vec3 ga_m = u.cross(n0.cross(n1)), ga_0 = n0.cross(n1.cross(u)), ga_1 = n1.cross(u.cross(n0));
+    const Vec3 gb_0 = n0.cross(n1) - c1 * n0.cross(u), gb_1 = n1.cross(n0) - c0 * n1.cross(u);
+    const Vec3 gb_m = -(c1 * u.cross(n0) + c0 * u.cross(n1));
+    out.g.block<1, 3>(row, layout.offset[d.linker] + 3) += (cp * ga_m - sp * gb_m).transpose();
+    out.g.block<1, 3>(row, layout.offset[d.nb0] + 3) += (cp * ga_0 - sp * gb_0).transpose();
+    out.g.block<1, 3>(row, layout.offset[d.nb1] + 3) += (cp * ga_1 - sp * gb_1).transpose();
+
+    const Vec3 du = lm.omega.cross(u), dn0 = l0.omega.cross(n0), dn1 = l1.omega.cross(n1);
+    const Vec3 ddu = lm.omega.cross(du), ddn0 = l0.omega.cross(dn0), ddn1 = l1.omega.cross(dn1);
+    const double dda = ddu.dot(n0.cross(n1)) + u.dot(ddn0.cross(n1)) + u.dot(n0.cross(ddn1)) +
+                       2.0 * (du.dot(dn0.cross(n1)) + du.dot(n0.cross(dn1)) + u.dot(dn0.cross(dn1)));
+    const double dc0 = du.dot(n0) + u.dot(dn0), dc1 = du.dot(n1) + u.dot(dn1);
+    const double ddc0 = ddu.dot(n0) + 2.0 * du.dot(dn0) + u.dot(ddn0);
+    const double ddc1 = ddu.dot(n1) + 2.0 * du.dot(dn1) + u.dot(ddn1);
+    const double ddb = ddn0.dot(n1) + 2.0 * dn0.dot(dn1) + n0.dot(ddn1) - (ddc0 * c1 + 2.0 * dc0 * dc1 + c0 * ddc1);
+    out.bias[row] = cp * dda - sp * ddb;
+    ++row;
+  }
+}
+
+}  // namespace ringsim

@@ -1,0 +1,146 @@
+#pragma once
+// Articulated bonds as holonomic constraints (MODEL.md, "Two bond regimes",
+// articulated; docs/ARTICULATED.md): the constraint functions C(poses) of one
+// cluster, their Jacobians G and the velocity-product terms (dG/dt) v.
+//
+// Joints (indices are into the cluster's bodies, the same as CompliantCluster):
+//  - BallJoint (3 rows): the sphere's centre stays at its capture position
+//    fixed in the linker's body frame,
+//      C = x_S - (x_L + R(q_L) a),   a = the anchor in the linker's body frame;
+//  - HeldAngle (1 row): the angle theta between the outward axes n_A, n_B of
+//    two linkers at a sphere (core/bond_rules.hpp: n = outward_axis(u, end),
+//    pointing away from the sphere) held at theta0, written as
+//      C = (cos theta0 - n_A . n_B) / sin theta0      (= theta - theta0 + O(dtheta^2)),
+//    so that the row is in radians and of unit size near the held pose. Its
+//    gradient is |n_A x n_B| / sin theta0: it vanishes at theta = 0 or 180
+//    degrees, where one scalar cannot hold an angle (there the held set is
+//    a point of the two-sphere, two conditions); held_angle_defined() refuses
+//    theta0 within kHeldMinSine of those (the rules must not create such a
+//    hold; with the study's filter, theta0 = 90 +- 5 degrees, it never comes up);
+//  - HeldDihedral (1 row): the dihedral phi about linker M between the outward
+//    axes n0, n1 of its neighbours (dihedral_deg's convention, radians) held
+//    at phi0, written with a = u x n0, b = u x n1 as
+//      C = |a| |b| sin(phi - phi0) = cos(phi0) u.(n0 x n1) - sin(phi0) (u x n0).(u x n1),
+//    a polynomial in the three axes. Why not C = phi - phi0: its gradient
+//    has size 1/|a| (1/|b|) and blows up where a neighbour turns parallel to
+//    M's axis; with a held dihedral and a free bond angle (Scenario 3's
+//    filters) a planar chain swings a neighbour through that pose within a
+//    few time units (measured: every one of 6 seeds within t < 27, where
+//    the integrator then stalled), and there phi jumps by pi (cis <-> trans).
+//    The polynomial's gradient stays finite and nonzero there (its size is
+//    ~ max(|a|, |b|)), its zero set holds phi0 and phi0 + pi, the two branches
+//    a planar swing passes between, and it vanishes only when both
+//    neighbours are parallel to the axis (codimension 4). Near the held pose
+//    C = |a||b| (phi - phi0) + O(dphi^3): radians times the two sines.
+//    held_dihedral_defined() refuses a hold whose phi0 cannot be measured
+//    (a neighbour within kHeldMinSine of the axis at the check);
+//    min_joint_sine() reports how close a held pose has come to a singular one.
+// Nothing else is held.
+//
+// Velocity coordinates (VelocityLayout), body by body in the cluster's
+// order: a sphere v (3; a point mass on its joints, no spin column), a linker
+// v then world omega (6). Rows of G act on that vector: C' = G nu, and
+// C'' = G nu' + (dG/dt) nu, where the bias (dG/dt) nu is evaluated with the
+// present velocities (Baraff 1996, "Linear-time dynamics using Lagrange
+// multipliers", eq. for the acceleration-level constraint). Row order: the ball
+// joints (3 rows each), then the angles, then the dihedrals.
+//
+// Gradients with respect to a body's rotation: a body turning at omega moves a
+// vector r fixed in it at omega x r; d(f)/dt = G_omega . omega defines the
+// omega columns.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/compliant.hpp"
+#include "core/vec.hpp"
+
+namespace ringsim {
+
+// Smallest sine allowed between the two axes of a held angle (at theta0) and
+// between a held dihedral's axis and either neighbour: sin 2 degrees. Below
+// it the row's gradient is within a factor ~30 of vanishing (angle) or
+// exploding (dihedral); the rules refuse such a hold.
+constexpr double kHeldMinSine = 0.03489949670250097;  // sin(2 degrees)
+
+struct BallJoint {
+  int sphere;
+  int linker;
+  Vec3 anchor;  // the sphere centre in the linker's body frame (length units)
+};
+struct HeldAngle {
+  int sphere;           // the common sphere (no row depends on it; bookkeeping)
+  int linker_a, end_a;  // the two linkers and their ends at the sphere
+  int linker_b, end_b;
+  double theta0;        // radians, sin(theta0) >= kHeldMinSine
+};
+struct HeldDihedral {
+  int linker;        // the central linker M
+  int nb0, nb0_end;  // neighbour at the sphere on M's end-0 side, its end there
+  int nb1, nb1_end;  // neighbour at the end-1 side
+  double phi0;       // radians, in (-pi, pi]
+};
+
+struct JointSet {
+  std::vector<BallJoint> balls;
+  std::vector<HeldAngle> angles;
+  std::vector<HeldDihedral> dihedrals;
+
+  int rows() const { return 3 * int(balls.size()) + int(angles.size()) + int(dihedrals.size()); }
+  bool empty() const { return balls.empty() && angles.empty() && dihedrals.empty(); }
+};
+
+// Joints holding the present pose: the anchor, theta0, phi0 measured now.
+BallJoint make_ball_joint(const std::vector<CompliantBody>& bodies, int sphere, int linker);
+HeldAngle make_held_angle(const std::vector<CompliantBody>& bodies, int sphere, int linker_a, int end_a,
+                          int linker_b, int end_b);
+HeldDihedral make_held_dihedral(const std::vector<CompliantBody>& bodies, int linker, int nb0, int nb0_end,
+                                int nb1, int nb1_end);
+
+// Empty when every index of `joints` names a body of the right shape (a
+// sphere, linkers, ends 0 or 1) and every held angle is defined; else what is wrong.
+std::string check_joints(const std::vector<CompliantBody>& bodies, const JointSet& joints);
+
+// Predicates for the bond rules: can this value be held? (unit axes; angle in radians)
+bool held_angle_defined(double theta0);
+bool held_dihedral_defined(const Vec3& u, const Vec3& n0, const Vec3& n1);
+// The smallest of sin(theta) over the held angles and of max(|u x n0|,
+// |u x n1|) over the held dihedrals at the present pose (1 when there are
+// none): the size of the smallest row's gradient, near 0 only near a
+// singular pose.
+double min_joint_sine(const std::vector<CompliantBody>& bodies, const JointSet& joints);
+
+// Offsets of each body's velocity coordinates (see the header).
+struct VelocityLayout {
+  std::vector<int> offset;
+  int size = 0;
+
+  VelocityLayout() = default;
+  explicit VelocityLayout(const std::vector<CompliantBody>& bodies);
+  static int width(Shape s) { return s == Shape::Sphere ? 3 : 6; }
+};
+
+// nu (the velocity coordinates) of the bodies, and back (spheres keep their omega).
+Eigen::VectorXd velocity_vector(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout);
+void set_velocities(std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const Eigen::VectorXd& nu);
+
+// Moves every body along the velocity coordinates dnu for unit time (x += dv,
+// q <- exp(domega) q with the world rotation vector domega): the update of
+// a position correction and of the finite-difference tests.
+void displace(std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const Eigen::VectorXd& dnu);
+
+// The constraint residual C, in the row order of the header.
+Eigen::VectorXd joint_residual(const std::vector<CompliantBody>& bodies, const JointSet& joints);
+
+// C, G (rows x layout.size) and the bias (dG/dt) nu at the present velocities.
+struct JointRows {
+  Eigen::VectorXd c;
+  Eigen::MatrixXd g;
+  Eigen::VectorXd bias;
+};
+void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
+                JointRows& out);
+
+}  // namespace ringsim
