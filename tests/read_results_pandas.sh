@@ -40,7 +40,10 @@ row = summary[summary["name"] == b"N_t"].iloc[0]
 assert abs(row["mean"] - df["N_t"].mean()) < 1e-9, (row["mean"], df["N_t"].mean())
 assert n_ok == 3
 assert series.shape[0] == 3
-# The series starts at t = 0 with every body its own object.
-assert series[0, 0] == 120, series[0, :3]
+# The series starts at t = 0 with at most every body its own object (pairs
+# placed inside a capture shell bond at t = 0) and never rises.
+assert 110 <= series[0, 0] <= 120, series[0, :3]
+finite = series[0][np.isfinite(series[0])]
+assert (np.diff(finite) <= 0).all(), finite
 print("h5py/pandas read OK:", len(df), "rows,", len(names), "summary rows, series", series.shape)
 PY

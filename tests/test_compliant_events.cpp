@@ -119,7 +119,11 @@ double free_end_gap(const Simulation& sim) {
 }
 
 TEST(CompliantChain, RelaxesAndClosesIntoTheSquareInsideItsOwnCluster) {
+  // The end-point capture reading: open_square places the free end just
+  // outside the end point's shell (free_end_gap); the end face's shell
+  // already holds it at t = 0, and all eight bonds would form at once.
   SimParams p = compliant_params();
+  p.bonding.capture_site = CaptureSite::EndPoint;
   Simulation sim(p, make_bodies(p, open_square(4.0, 0.0, 0.0, 1)));
   EXPECT_EQ(sim.stats().bonds, 7);  // the open chain, at t = 0
   EXPECT_EQ(sim.graph().N_t(), 1);
@@ -434,6 +438,7 @@ TEST(CompliantScenario, StiffBondsGetSlicesTheirTracksCanFollow) {
   p.compliant.burst_contacts = 0;
   p.compliant.relax_energy = 0.0;
   p.run.t_max = 5.0;
+  p.bonding.capture_site = CaptureSite::EndPoint;  // the scenes the sweep found
   auto run = [&](double tolerance, std::uint64_t seed) {
     p.compliant.track_tolerance = tolerance;
     Simulation sim(p, build_scene(p, seed, 0, nullptr));

@@ -128,10 +128,21 @@ TEST(EventQueue, FastAndReferenceQueuesGiveIdenticalEventSequence) {
 // t = 2 to 1e-8 - 4e-8 at t = 6 and 1e-6 at t = 9, so t <= 6.5 leaves a wide
 // margin below 1e-6). (Cell events are bookkeeping: a cluster member's
 // relocation fires anywhere in a band of the cell slack, so it is left out.)
+// A capture the rules refuse changes nothing; searched to their own
+// horizons, both bodies may hold it (found from each side within the firing
+// band), and the second fires right after the first and is refused again.
+// With the partner horizon a search stops at the partner's pending event, so
+// only one side holds it. Such a repeat (the same pair and end, back to back)
+// is dropped from the comparison.
 std::vector<Simulation::LoggedEvent> physical_events(const std::vector<Simulation::LoggedEvent>& log) {
   std::vector<Simulation::LoggedEvent> out;
-  for (const auto& e : log)
-    if (e.type == EventType::Collision || e.type == EventType::Wall || e.type == EventType::Capture) out.push_back(e);
+  for (const auto& e : log) {
+    if (e.type != EventType::Collision && e.type != EventType::Wall && e.type != EventType::Capture) continue;
+    if (e.type == EventType::Capture && !out.empty() && out.back().type == EventType::Capture &&
+        out.back().a == e.b && out.back().b == e.a && e.time - out.back().time < 1e-6)
+      continue;
+    out.push_back(e);
+  }
   return out;
 }
 
@@ -155,7 +166,9 @@ void expect_same_events_both_horizons(SimParams p, std::uint64_t seed, std::size
 TEST(PartnerHorizon, SameEventsAsOwnHorizonSearchesWithBonds) {
   SimParams p;  // the default scene: Scenario 4, captures, rigid clusters
   p.run.t_max = 6.5;
-  expect_same_events_both_horizons(p, 3, 600);
+  // (599 contacts, wall hits and captures by t = 6.5 with the end-face
+  // capture reading; the floor only makes sure the run did something.)
+  expect_same_events_both_horizons(p, 3, 500);
 }
 
 TEST(PartnerHorizon, SameEventsAsOwnHorizonSearchesPeriodicLinkers) {
@@ -875,9 +888,10 @@ TEST(Cli, ReplicateSnapshotWritesTheFinalConfiguration) {
 }
 
 TEST(Cli, ReplicateSeriesFeedsTheMserCommand) {
-  // N_t sampled every 0.5 over 40 time units: 81 samples from 600 down, each
-  // no larger than the previous (bonds only merge objects); `ringsim mser`
-  // reads the file as written.
+  // N_t sampled every 0.5 over 40 time units: 81 samples from at most 600
+  // (pairs placed inside a capture shell bond at t = 0) down, each no larger
+  // than the previous (bonds only merge objects); `ringsim mser` reads the
+  // file as written.
   const std::string path = ::testing::TempDir() + "ringsim_series_test.txt";
   std::remove(path.c_str());
   Cmd c = run_cli("replicate --seed 6 --set run.t_max=40 --set run.sample_interval=0.5 --series " + path + " --json");
@@ -888,7 +902,8 @@ TEST(Cli, ReplicateSeriesFeedsTheMserCommand) {
   while (std::getline(in, line))
     if (!line.empty() && line[0] != '#') v.push_back(std::stod(line));
   ASSERT_EQ(v.size(), 81u);
-  EXPECT_EQ(v.front(), 600.0);
+  EXPECT_LE(v.front(), 600.0);
+  EXPECT_GT(v.front(), 590.0);
   for (std::size_t k = 1; k < v.size(); ++k) EXPECT_LE(v[k], v[k - 1]) << k;
   const nlohmann::json j = nlohmann::json::parse(c.out);
   c = run_cli("mser " + path);
