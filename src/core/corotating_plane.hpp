@@ -1,6 +1,5 @@
 #pragma once
-// A separating plane that turns with one of the two bodies (docs/ARCHITECTURE.md,
-// "Prediction").
+// A separating plane that turns with one of the two bodies (docs/PREDICTION.md).
 //
 // When the contact lies on a flat face or the lateral surface of body X, a
 // fixed separating direction is a poor bound once X tilts: its support along

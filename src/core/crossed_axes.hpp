@@ -1,6 +1,6 @@
 #pragma once
 // A separating plane for two linkers touching side to side
-// (docs/ARCHITECTURE.md, "Prediction").
+// (docs/PREDICTION.md).
 //
 // Two cylinders whose axes cross (w = u_X x u_Y != 0) are separated along
 // m = sigma w / |w| (sigma = +-1, fixed so that m points from X towards Y at

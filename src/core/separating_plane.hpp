@@ -1,7 +1,7 @@
 #pragma once
 // Certified lower bounds on the gap between two moving bodies, from a fixed
 // separating direction (used by the conservative advancement in
-// prediction.cpp; see docs/ARCHITECTURE.md, "Prediction").
+// prediction.cpp; see docs/PREDICTION.md).
 //
 // For any unit vector n, the separation of two convex solids A and B along n,
 //     s(t) = n.(x_B(t) - x_A(t)) - h_A(n, t) - h_B(-n, t),

@@ -382,8 +382,8 @@ void Simulation::predict(int i, double t) {
   // its kind (an impulse, a cell crossing, a stale event, a capture, a slice),
   // and that prediction covers the pair from then on. So no contact of the
   // pair before that time is missed, and the work of searching beyond it is
-  // saved when the partner's trajectory changes there (docs/ARCHITECTURE.md,
-  // "Prediction"). run.partner_horizon = false searches to i's own horizon.
+  // saved when the partner's trajectory changes there (docs/PREDICTION.md).
+  // run.partner_horizon = false searches to i's own horizon.
   const bool partner_horizon = params_.run.partner_horizon;
   auto pair_limit = [&](int j) { return partner_horizon ? std::min(best.time, events_[j].time) : best.time; };
   // The limit may be kNever: i has no event yet (at rest: no cell exit, no
