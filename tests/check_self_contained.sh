@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Fails when a file of the repository refers to a path outside it: a sibling
-# directory reached by "../shared" or an absolute path of the development
-# machine ("/work/"). A user's clone has neither.
+# Fails when a file of the repository refers to a path outside it: the
+# sibling folder of shared specifications next to the development checkout,
+# or an absolute path of the development machine (the patterns are built
+# below). A user's clone has neither.
 #
 # Usage: check_self_contained.sh [REPO_DIR]   (default: the repository of this
 # script). Lists the tracked files with `git ls-files` when REPO_DIR is a git
