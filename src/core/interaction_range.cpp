@@ -14,10 +14,7 @@ InteractionRange interaction_range(const SimParams& p, const Species& sphere, co
   r.contact = 2.0 * r_max;
   // Captures, and the clusters they make, need a sphere and a linker.
   const bool bonds = p.bonding.enabled && has_spheres && has_linkers;
-  // The farthest point of the capture site from the linker's centre: the end
-  // point at h, or the end face's rim at sqrt(h^2 + r_L^2) (the bounding radius).
-  const double site = p.bonding.capture_site == CaptureSite::EndFace ? linker.bounding_radius : linker.half_length;
-  if (bonds) r.capture = site + sphere.radius + p.bonding.capture_distance;
+  if (bonds) r.capture = Predictor::capture_arm(linker, p.bonding.capture_site) + sphere.radius + p.bonding.capture_distance;
   r.tolerance = 2.0 * p.run.contact_tolerance;
   if (bonds) r.slack = 2.0 * Predictor::cell_slack();
   return r;

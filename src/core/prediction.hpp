@@ -193,6 +193,10 @@ class Predictor {
     double gap;
   };
   CaptureGeometry capture_geometry(int l, int end, int s, double t, double rc) const;
+  // The farthest point of a linker's capture site from its centre: the end
+  // point at h, or the face's rim at sqrt(h^2 + r_L^2), its bounding radius
+  // (the windows of capture searches, the interaction range).
+  static double capture_arm(const Species& linker, CaptureSite site);
   // Whether a refused capture of end `end` of l by s is still waiting for
   // the end to leave the shell (validation's missed-capture check).
   bool capture_is_refused(int l, int end, int s) const { return refused(l, end, s); }

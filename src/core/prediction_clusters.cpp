@@ -285,10 +285,7 @@ double Predictor::leave_cell(int i, double t, double limit, const Vec3& lo, doub
 }
 
 double Predictor::capture_gap(int l, int end, int s, double t, double rc) const {
-  if (capture_site_ == CaptureSite::EndFace) return capture_geometry(l, end, s, t, rc).gap;
-  const double h = b_.sp(l).half_length;
-  const Vec3 p = body_center(b_, l, t) + (end == 0 ? h : -h) * body_axis(b_, l, t);
-  return box_.min_image(body_center(b_, s, t) - p).norm() - b_.sp(s).radius - rc;
+  return capture_geometry(l, end, s, t, rc).gap;
 }
 
 Predictor::CaptureGeometry Predictor::capture_geometry(int l, int end, int s, double t, double rc) const {
@@ -297,16 +294,21 @@ Predictor::CaptureGeometry Predictor::capture_geometry(int l, int end, int s, do
   g.cl = body_center(b_, l, t);
   g.axis = body_axis(b_, l, t);
   g.p = g.cl + (end == 0 ? sl.half_length : -sl.half_length) * g.axis;
-  g.cs = g.p + box_.min_image(body_center(b_, s, t) - g.p);
+  const Vec3 d = box_.min_image(body_center(b_, s, t) - g.p);
+  g.cs = g.p + d;
   double dist;
   if (capture_site_ == CaptureSite::EndFace) {
     dist = geom::point_disk_distance(g.cs, g.p, g.axis, sl.radius, &g.q);
   } else {
     g.q = g.p;
-    dist = (g.cs - g.p).norm();
+    dist = d.norm();
   }
   g.gap = dist - b_.sp(s).radius - rc;
   return g;
+}
+
+double Predictor::capture_arm(const Species& linker, CaptureSite site) {
+  return site == CaptureSite::EndFace ? linker.bounding_radius : linker.half_length;
 }
 
 double Predictor::capture(int l, int end, int s, double t, double limit, double rc) {
@@ -338,9 +340,7 @@ void Predictor::forget_refused(int l, int end, int s) {
 double Predictor::capture_on_image(int l, int end, int s, double t, double limit, double rc, bool now) {
   const bool face = capture_site_ == CaptureSite::EndFace;
   const double rs = b_.sp(s).radius, r_face = b_.sp(l).radius;
-  // The farthest point of the capture site from l's centre: the end point at
-  // h, or the face's rim at sqrt(h^2 + r_L^2), the linker's bounding radius.
-  const double arm = face ? b_.sp(l).bounding_radius : b_.sp(l).half_length;
+  const double arm = capture_arm(b_.sp(l), capture_site_);
   // Window: the site stays within arm (+ reach) of l's reference point, the
   // sphere's centre within its reach of its own.
   const double rl = reference_offset(b_, l) + arm;
@@ -376,14 +376,13 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
   // the sphere's centre (negative: closing). For a distance to a convex set
   // that line is the gradient, so the rate is the relative velocity of the
   // two material points along it.
-  auto closing = [&](double at) {
-    const CaptureGeometry cg = capture_geometry(l, end, s, at, rc);
+  auto closing = [&](double at, const CaptureGeometry& cg) {
     const Vec3 n = (cg.cs - cg.q).normalized();
     return n.dot(shape_point_velocity(b_, s, at, cg.cs, cg.cs) - shape_point_velocity(b_, l, at, cg.q, cg.cl)) < 0.0;
   };
   // In the firing band and closing, not refused: the gap entered the band
   // since the last search (which stopped short of its capture), fire now.
-  if (g <= delta_ && !(now && refused(l, end, s)) && closing(x)) return x;
+  if (g <= delta_ && !(now && refused(l, end, s)) && closing(x, capture_geometry(l, end, s, x, rc))) return x;
   // Otherwise inside the shell or its firing band: first find the way out (to
   // beyond 2 delta, the hysteresis that keeps a refused capture from firing
   // again).
@@ -403,10 +402,11 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
     if (x >= stop) return kNever;
     ++ca_iterations_;
     ++counts_.capture;
-    g = capture_gap(l, end, s, x, rc);
+    const CaptureGeometry cg = capture_geometry(l, end, s, x, rc);
+    g = cg.gap;
     if (g <= delta_) {
       // In the firing band: a capture if the gap is closing.
-      if (closing(x)) return x;
+      if (closing(x, cg)) return x;
       x += floor_step;
       continue;
     }
@@ -423,9 +423,8 @@ double Predictor::capture_on_image(int l, int end, int s, double t, double limit
       // + e, |e| <= accel tau^2 / 2 (LocalMotion), so |n x u| grows at most
       // by tau |n x (omega x u)| + accel tau^2 / 2. Together a concave
       // quadratic lower bound of the gap.
-      const CaptureGeometry cg = capture_geometry(l, end, s, x, rc);
       const Vec3 n = (cg.cs - cg.q).normalized();
-      const PointMotion mp = point_motion(b_, l, x, cg.p, cg.cl + (reference_center(b_, l, x) - body_center(b_, l, x)));
+      const PointMotion mp = point_motion(b_, l, x, cg.p, cg.cl + (reference_center(b_, l, x) - cg.cl));
       const PointMotion ms =
           point_motion(b_, s, x, cg.cs, cg.cs + (reference_center(b_, s, x) - body_center(b_, s, x)));
       double a = n.dot(cg.cs - cg.p) - rs - rc, rate = n.dot(ms.vel - mp.vel), quad = mp.quad + ms.quad;
