@@ -128,21 +128,10 @@ TEST(EventQueue, FastAndReferenceQueuesGiveIdenticalEventSequence) {
 // t = 2 to 1e-8 - 4e-8 at t = 6 and 1e-6 at t = 9, so t <= 6.5 leaves a wide
 // margin below 1e-6). (Cell events are bookkeeping: a cluster member's
 // relocation fires anywhere in a band of the cell slack, so it is left out.)
-// A capture the rules refuse changes nothing; searched to their own
-// horizons, both bodies may hold it (found from each side within the firing
-// band), and the second fires right after the first and is refused again.
-// With the partner horizon a search stops at the partner's pending event, so
-// only one side holds it. Such a repeat (the same pair and end, back to back)
-// is dropped from the comparison.
 std::vector<Simulation::LoggedEvent> physical_events(const std::vector<Simulation::LoggedEvent>& log) {
   std::vector<Simulation::LoggedEvent> out;
-  for (const auto& e : log) {
-    if (e.type != EventType::Collision && e.type != EventType::Wall && e.type != EventType::Capture) continue;
-    if (e.type == EventType::Capture && !out.empty() && out.back().type == EventType::Capture &&
-        out.back().a == e.b && out.back().b == e.a && e.time - out.back().time < 1e-6)
-      continue;
-    out.push_back(e);
-  }
+  for (const auto& e : log)
+    if (e.type == EventType::Collision || e.type == EventType::Wall || e.type == EventType::Capture) out.push_back(e);
   return out;
 }
 

@@ -158,6 +158,17 @@ void Simulation::process_capture(int i, const Event& ev, double t) {
   }
 }
 
+bool Simulation::repeats_a_refusal(int i, const Event& ev) const {
+  // A pending capture of a pair whose capture the rules refused since it was
+  // predicted: every search of the pair that starts after a refusal, inside
+  // the shell, walks out first (Predictor::capture), so this one was found
+  // before the refusal, from the other body's side. It would be refused
+  // again; it is stale.
+  if (ev.type != EventType::Capture) return false;
+  const bool linker = bodies_.shape[i] == Shape::Linker;
+  return predictor_.capture_is_refused(linker ? i : ev.partner, ev.dim, linker ? ev.partner : i);
+}
+
 void Simulation::check_initial_captures() {
   // MODEL.md: rules are checked at t = 0 for pairs already inside the shell.
   const double rc = params_.bonding.capture_distance;

@@ -859,7 +859,7 @@ bool Simulation::step() {
   switch (ev.type) {
     case EventType::Collision:
     case EventType::Capture:
-      if (bodies_.counter[ev.partner] != ev.partner_counter) {
+      if (bodies_.counter[ev.partner] != ev.partner_counter || repeats_a_refusal(i, ev)) {
         profile_kind_ = EventProfile::kStale;
         ++stats_.stale;
         if (sphere_gas_) predict_sphere(i, ev.time, SphereScan::Stale);

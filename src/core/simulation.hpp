@@ -289,6 +289,9 @@ class Simulation {
   // Forms the bond, merges groups and closes rings; re-predicts the cluster.
   void form_bond(int s, int l, int end, double t);
   void check_initial_captures();
+  // The pending capture ev of body i repeats one the rules have refused
+  // since (found from the other side): stale.
+  bool repeats_a_refusal(int i, const Event& ev) const;
   bool bond_possible() const;
   void process_collision(int i, int j, double t);
   // The contact law of pair (i, j) at t: combined restitution and friction,
