@@ -46,20 +46,25 @@ void for_each_close_pair(const std::vector<Vec3>& x, const Box& box, double w, F
   }
 }
 
-// Centres (wrapped into a periodic box) and axes of every body at t.
-void poses_at(const BodyStore& b, const Box& box, double t, std::vector<Vec3>* x, std::vector<Vec3>* u) {
-  const int n = b.size();
-  x->resize(n);
-  u->resize(n);
-  for (int i = 0; i < n; ++i) {
-    (*x)[i] = body_center(b, i, t);
-    if (box.periodic)
-      for (int d = 0; d < 3; ++d) (*x)[i][d] -= box.length * std::floor((*x)[i][d] / box.length);
-    (*u)[i] = body_axis(b, i, t);
-  }
-}
-
 }  // namespace
+
+// Centres (wrapped into a periodic box) and axes of every body at t, computed
+// once per check for both of its searches.
+Validator::Poses Validator::poses_at(const Simulation& sim, double t) {
+  const BodyStore& b = sim.bodies();
+  const Box& box = sim.box();
+  const int n = b.size();
+  Poses q;
+  q.x.resize(n);
+  q.u.resize(n);
+  for (int i = 0; i < n; ++i) {
+    q.x[i] = body_center(b, i, t);
+    if (box.periodic)
+      for (int d = 0; d < 3; ++d) q.x[i][d] -= box.length * std::floor(q.x[i][d] / box.length);
+    q.u[i] = body_axis(b, i, t);
+  }
+  return q;
+}
 
 Validator::Validator(const Simulation& sim, double slack) : slack_(slack) {
   const ContactParams& c = sim.params().contact;
@@ -98,12 +103,15 @@ Validator::Totals Validator::totals(const Simulation& sim, double t) {
 }
 
 std::int64_t Validator::count_overlaps(const Simulation& sim, double t, double slack, double* max_axis_error) {
+  return count_overlaps(sim, poses_at(sim, t), slack, max_axis_error);
+}
+
+std::int64_t Validator::count_overlaps(const Simulation& sim, const Poses& poses, double slack, double* max_axis_error) {
   const BodyStore& b = sim.bodies();
   const Box& box = sim.box();
   const int n = b.size();
   double rmax = 0.0;
-  std::vector<Vec3> x, u;
-  poses_at(b, box, t, &x, &u);
+  const std::vector<Vec3>&x = poses.x, &u = poses.u;
   for (int i = 0; i < n; ++i) {
     if (max_axis_error && b.shape[i] == Shape::Linker)
       *max_axis_error = std::max(*max_axis_error, std::abs(u[i].norm() - 1.0));
@@ -149,14 +157,17 @@ std::int64_t Validator::count_overlaps(const Simulation& sim, double t, double s
 }
 
 std::int64_t Validator::count_missed_captures(const Simulation& sim, double t, CaptureSite site) {
+  return count_missed_captures(sim, poses_at(sim, t), site);
+}
+
+std::int64_t Validator::count_missed_captures(const Simulation& sim, const Poses& poses, CaptureSite site) {
   const SimParams& p = sim.params();
   if (!p.bonding.enabled || p.bonding.end_valency < 1) return 0;
   const BodyStore& b = sim.bodies();
   const BondGraph& graph = sim.graph();
   const Box& box = sim.box();
   const double rc = p.bonding.capture_distance;
-  std::vector<Vec3> x, u;
-  poses_at(b, box, t, &x, &u);
+  const std::vector<Vec3>&x = poses.x, &u = poses.u;
   double reach = 0.0;  // the largest sphere-linker centre distance at a capture
   for (int i = 0; i < b.size(); ++i) reach = std::max(reach, b.sp(i).bounding_radius);
   reach = 2.0 * reach + rc;
@@ -185,10 +196,11 @@ std::int64_t Validator::count_missed_captures(const Simulation& sim, double t, C
 
 void Validator::check(const Simulation& sim, double t) {
   ++report_.checks;
-  const std::int64_t ov = count_overlaps(sim, t, slack_, &report_.max_axis_error);
+  const Poses poses = poses_at(sim, t);
+  const std::int64_t ov = count_overlaps(sim, poses, slack_, &report_.max_axis_error);
   if (ov > 0 && report_.overlaps == 0) report_.first_overlap_time = t;
   report_.overlaps += ov;
-  const std::int64_t missed = count_missed_captures(sim, t, sim.params().bonding.capture_site);
+  const std::int64_t missed = count_missed_captures(sim, poses, sim.params().bonding.capture_site);
   if (missed > 0 && report_.missed_captures == 0) report_.first_missed_capture_time = t;
   report_.missed_captures += missed;
   const Totals now = totals(sim, t);

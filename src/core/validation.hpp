@@ -25,6 +25,7 @@
 //    axes for good, so an error here would persist).
 
 #include <cstdint>
+#include <vector>
 
 #include "core/params.hpp"
 #include "core/vec.hpp"
@@ -71,6 +72,14 @@ class Validator {
   static constexpr double kMissedCaptureMargin = 1e-7;
 
  private:
+  // Centres (wrapped) and axes of every body at one time.
+  struct Poses {
+    std::vector<Vec3> x, u;
+  };
+  static Poses poses_at(const Simulation& sim, double t);
+  static std::int64_t count_overlaps(const Simulation& sim, const Poses& poses, double slack, double* max_axis_error);
+  static std::int64_t count_missed_captures(const Simulation& sim, const Poses& poses, CaptureSite site);
+
   double slack_;
   bool elastic_;
   double p_scale_ = 0.0, l_scale_ = 0.0;  // what the errors are relative to
