@@ -26,7 +26,15 @@ double combine(CombineRule rule, double a, double b) {
 
 namespace {
 
+Mat3 side_matrix(const ContactSide& s) {
+  if (s.explicit_k) return s.k;
+  const Mat3 r = cross_matrix(s.arm);
+  return s.inv_mass * Mat3::Identity() - r * s.inv_inertia * r;
+}
+
 Mat3 collision_matrix(const ContactSide& a, const ContactSide& b) {
+  if (a.explicit_k || b.explicit_k) return side_matrix(a) + side_matrix(b);
+  // (Summed in this order for the rigid bodies: the same bits as always.)
   const Mat3 ra = cross_matrix(a.arm), rb = cross_matrix(b.arm);
   return (a.inv_mass + b.inv_mass) * Mat3::Identity() - ra * a.inv_inertia * ra - rb * b.inv_inertia * rb;
 }

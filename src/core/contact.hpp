@@ -26,6 +26,11 @@ struct ContactSide {
   Vec3 arm;          // contact point - centre of mass
   Vec3 v;            // centre velocity
   Vec3 omega;        // angular velocity
+  // A side whose velocities are constrained (a member of an articulated
+  // cluster, core/joint_impulses.hpp): its share of the collision matrix is
+  // k, given, instead of the rigid body's inv_mass 1 - [arm]x inv_inertia [arm]x.
+  bool explicit_k = false;
+  Mat3 k = Mat3::Zero();
 };
 
 struct ContactLaw {
