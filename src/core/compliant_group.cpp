@@ -41,6 +41,12 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const std::vector<Compl
     tr.wb = e.omega.cross(tr.ub);
     tr.spin_a = a.omega.dot(tr.ua);
     tr.spin_b = e.omega.dot(tr.ub);
+    tr.qa = a.q;
+    {
+      // The rotation left between qb and the shortest turn of qa: about ub.
+      const Quat rest = e.q * (Quat::FromTwoVectors(tr.ua, tr.ub) * a.q).conjugate();
+      tr.roll_b = 2.0 * std::atan2(rest.vec().dot(tr.ub), rest.w());
+    }
     tr.ubar = D > 0.0 ? Vec3((tr.ub - tr.ua) / D) : tr.wa;
     // The interpolated axis h(t) stays within D/4 max(|wa - ubar|, |wb - ubar|)
     // of the chord (1 - s) ua + s ub, whose length is at least
@@ -105,7 +111,8 @@ double track_error_estimate(const SliceEnd& a, const SliceEnd& b, double D) {
   return worst;
 }
 
-CompliantBody member_state(const BodyStore& b, int i, double t, const CompliantBody& model, const Vec3& shift) {
+CompliantBody member_state(const BodyStore& b, int i, double t, const CompliantBody& model, const Vec3& shift,
+                           bool full_orientation) {
   const Track& tr = b.track[i];
   CompliantBody s = model;
   s.x = track_center(tr, t) - shift;
@@ -114,8 +121,7 @@ CompliantBody member_state(const BodyStore& b, int i, double t, const CompliantB
     s.omega = tr.sphere_omega;
     return s;
   }
-  const Vec3 u = track_axis(tr, t);
-  s.q = orientation_from_axis(u);
+  s.q = full_orientation ? track_orientation(tr, t) : orientation_from_axis(track_axis(tr, t));
   s.omega = track_omega(tr, t);
   return s;
 }

@@ -60,6 +60,16 @@ struct CompliantGroup {
   // After a contact burst the rigid cluster is held (contacts do not wake it)
   // until no contact has come for burst_time.
   double hold_until = -std::numeric_limits<double>::infinity();
+  // Articulated bonds (bonding.joint = articulated; docs/ARTICULATED.md): the
+  // joints, indices into model.bodies (model's terms are then the topology
+  // only: no springs). rigid: the joints leave no internal freedom, so the
+  // group always moves as one rigid body (dormant from its formation; only a
+  // new bond wakes it); frozen_rot: each member's orientation in that rigid
+  // body's frame, kept while dormant (the roll of off-axis anchors).
+  bool articulated = false;
+  bool rigid = false;
+  JointSet joints;
+  std::vector<Quat> frozen_rot;
 };
 
 // Tracks of every member of g over [ta, tb] from the integrator states sa at
@@ -82,7 +92,11 @@ double track_error_estimate(const SliceEnd& a, const SliceEnd& b, double D);
 
 // State of member i at t (inside its slice) from its track, in the
 // integrator's frame (shift removed). `model` supplies the body's constants.
-CompliantBody member_state(const BodyStore& b, int i, double t, const CompliantBody& model, const Vec3& shift);
+// A linker's orientation: full_orientation, with its roll (an articulated
+// cluster's anchors); else the standard one of its axis (compliant terms see
+// the axis only).
+CompliantBody member_state(const BodyStore& b, int i, double t, const CompliantBody& model, const Vec3& shift,
+                           bool full_orientation = false);
 
 // Kinetic energy of the cluster's motion relative to the rigid motion with
 // the same momentum and angular momentum (centre of mass, composite inertia

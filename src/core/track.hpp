@@ -62,6 +62,19 @@ inline Vec3 track_omega(const Track& k, double t) {
   const double s = D > 0.0 ? (t - k.ta) / D : 0.0;
   return u.cross(du) + ((1.0 - s) * k.spin_a + s * k.spin_b) * u;
 }
+// A linker's full orientation at t: qa carried along the shortest turn from
+// ua to the track's axis, then rolled about that axis by the roll at tb
+// times the elapsed share of the slice (linear in time). Exact at both ends;
+// inside the slice the roll is interpolated (the event loop never sees it;
+// an articulated cluster cut there projects its joints' velocities and
+// carries the small anchor residual to the next slice end's projection).
+inline Quat track_orientation(const Track& k, double t) {
+  const Vec3 u = track_axis(k, t);
+  const double D = k.tb - k.ta;
+  const double s = D > 0.0 ? (t - k.ta) / D : 0.0;
+  return (Quat(Eigen::AngleAxisd(s * k.roll_b, u)) * Quat::FromTwoVectors(k.ua, u) * k.qa).normalized();
+}
+
 // Velocity of the shape's point p (the axis turning, spin left out: it does
 // not move a cylinder of revolution).
 inline Vec3 track_shape_velocity(const Track& k, double t, const Vec3& p, const Vec3& center) {
