@@ -34,7 +34,7 @@ namespace ringsim {
 
 // Pivots below kRankThreshold x the largest count as zero (S's pivots scale
 // as (size of a row)^2 / mass; the rows are of unit size: lengths and radians).
-constexpr double kRankThreshold = 1e-10;
+constexpr double kRankThreshold = 1e-7;
 
 // Block-diagonal mass matrix in the velocity layout (world frame, present pose).
 struct MassMatrix {

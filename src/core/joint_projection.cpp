@@ -28,6 +28,38 @@ VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const 
   return r;
 }
 
+RollFit fit_rolls(std::vector<CompliantBody>& bodies, const JointSet& joints, int max_iterations) {
+  RollFit r;
+  if (joints.empty()) return r;
+  std::vector<int> linkers;
+  for (std::size_t i = 0; i < bodies.size(); ++i)
+    if (bodies[i].shape == Shape::Linker) linkers.push_back(static_cast<int>(i));
+  const VelocityLayout layout(bodies);
+  for (int it = 0;; ++it) {
+    JointRows rows;
+    joint_rows(bodies, layout, joints, rows);
+    const double res = max_abs(rows.c);
+    if (it == 0) r.residual_before = res;
+    r.residual_after = res;
+    if (it == max_iterations || res == 0.0) break;
+    // Columns: d C / d(roll of linker k) = G's omega columns of k times u_k.
+    Eigen::MatrixXd a(rows.c.size(), static_cast<Eigen::Index>(linkers.size()));
+    for (std::size_t k = 0; k < linkers.size(); ++k) {
+      const int o = layout.offset[linkers[k]] + 3;
+      a.col(static_cast<Eigen::Index>(k)) = rows.g.middleCols<3>(o) * bodies[linkers[k]].axis();
+    }
+    const Eigen::VectorXd d = a.completeOrthogonalDecomposition().solve(-rows.c);
+    std::vector<CompliantBody> trial = bodies;
+    for (std::size_t k = 0; k < linkers.size(); ++k) {
+      CompliantBody& b = trial[linkers[k]];
+      b.q = (Quat(Eigen::AngleAxisd(d[static_cast<Eigen::Index>(k)], b.axis())) * b.q).normalized();
+    }
+    if (!(max_abs(joint_residual(trial, joints)) < res)) break;  // no gain: keep the better state
+    bodies.swap(trial);
+  }
+  return r;
+}
+
 PositionProjection project_positions(std::vector<CompliantBody>& bodies, const JointSet& joints, double tolerance,
                                      int max_iterations) {
   PositionProjection r;
@@ -42,6 +74,15 @@ PositionProjection project_positions(std::vector<CompliantBody>& bodies, const J
     joint_rows(bodies, m.layout, joints, rows);
     const double res = max_abs(rows.c);
     if (r.iterations == 0) r.residual_before = res;
+    // Stop at the tolerance, or when a step no longer halves the residual:
+    // at a singular pose (a ring whose redundant rows lose rank, e.g. two
+    // linkers side by side between the same two spheres) the part of C in
+    // G's left null space is of second order and no Gauss-Newton step
+    // removes it; the caller sees residual_after.
+    if (r.iterations > 0 && res > 0.5 * r.residual_after) {
+      r.residual_after = res;
+      break;
+    }
     r.residual_after = res;
     if (res <= tolerance || r.iterations >= max_iterations) break;
     const MultiplierSolve solve(rows.g, m);

@@ -34,15 +34,27 @@ struct VelocityProjection {
 };
 VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints);
 
+// The linkers' rolls about their own axes that best satisfy the joints
+// (Gauss-Newton on the roll angles alone, least squares, at most
+// max_iterations steps, each kept only when it lowers max |C|). A roll moves
+// nothing the event loop sees (a cylinder of revolution), so an articulated
+// cluster cut inside a slice fits its rolls, which the tracks only
+// interpolate, without moving any surface.
+struct RollFit {
+  double residual_before = 0.0, residual_after = 0.0;  // max |C|
+};
+RollFit fit_rolls(std::vector<CompliantBody>& bodies, const JointSet& joints, int max_iterations = 3);
+
 struct PositionProjection {
   double residual_before = 0.0;  // max |C| before
   double residual_after = 0.0;   // after the last step
   double displacement = 0.0;     // M-norm of the total correction, sqrt(sum dnu^T M dnu) over steps
   int iterations = 0;            // Gauss-Newton steps taken
-  bool converged = false;        // residual_after <= tolerance
+  bool converged = false;        // residual_after <= tolerance (else the steps stalled or ran out)
   VelocityProjection velocities; // the velocity projection that follows
 };
-// Gauss-Newton on positions (at most max_iterations steps), then velocities.
+// Gauss-Newton on positions (at most max_iterations steps, fewer when a step
+// no longer halves the residual: a singular pose), then velocities.
 PositionProjection project_positions(std::vector<CompliantBody>& bodies, const JointSet& joints, double tolerance,
                                      int max_iterations = 8);
 

@@ -42,6 +42,23 @@ HeldDihedral make_held_dihedral(const std::vector<CompliantBody>& bodies, int li
   return {linker, nb0, nb0_end, nb1, nb1_end, phi};
 }
 
+void add_articulated_bond(CompliantCluster& cluster, JointSet& joints, int sphere, int linker, int end,
+                          const BondingParams& bonding) {
+  const std::size_t nb = cluster.bonds.size(), na = cluster.angles.size(), nd = cluster.dihedrals.size();
+  add_compliant_bond(cluster, sphere, linker, end, bonding);
+  const std::vector<CompliantBody>& b = cluster.bodies;
+  for (std::size_t k = nb; k < cluster.bonds.size(); ++k)
+    joints.balls.push_back(make_ball_joint(b, cluster.bonds[k].sphere, cluster.bonds[k].linker));
+  for (std::size_t k = na; k < cluster.angles.size(); ++k) {
+    const CompliantAngle& a = cluster.angles[k];
+    joints.angles.push_back(make_held_angle(b, a.sphere, a.linker_a, a.end_a, a.linker_b, a.end_b));
+  }
+  for (std::size_t k = nd; k < cluster.dihedrals.size(); ++k) {
+    const CompliantDihedral& d = cluster.dihedrals[k];
+    joints.dihedrals.push_back(make_held_dihedral(b, d.linker, d.nb0, d.nb0_end, d.nb1, d.nb1_end));
+  }
+}
+
 std::string check_joints(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
   const int n = int(bodies.size());
   auto is = [&](int i, Shape s) { return i >= 0 && i < n && bodies[i].shape == s; };

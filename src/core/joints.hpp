@@ -101,6 +101,15 @@ HeldDihedral make_held_dihedral(const std::vector<CompliantBody>& bodies, int li
 
 // Empty when every index of `joints` names a body of the right shape (a
 // sphere, linkers, ends 0 or 1) and every held angle is defined; else what is wrong.
+// A new rigid bond (sphere, linker end) in the articulated reading (MODEL.md,
+// "Two bond regimes"): adds the bond's topology terms to `cluster` with
+// add_compliant_bond (the same rules decide which angles and dihedrals a bond
+// creates, whatever holds them) and, for each term it added, the joint that
+// holds it at the present pose: a ball joint at the sphere's centre, a held
+// angle at its present value, a held dihedral at its present value.
+void add_articulated_bond(CompliantCluster& cluster, JointSet& joints, int sphere, int linker, int end,
+                          const BondingParams& bonding);
+
 std::string check_joints(const std::vector<CompliantBody>& bodies, const JointSet& joints);
 
 // Predicates for the bond rules: can this value be held? (unit axes; angle in radians)
