@@ -9,11 +9,16 @@
 
 #include "core/bond_rules.hpp"
 #include "core/cluster.hpp"
+#include "core/joints.hpp"
 #include "core/motion.hpp"
 #include "core/pose.hpp"
 #include "core/simulation.hpp"
 
 namespace ringsim {
+
+namespace {
+constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
+}  // namespace
 
 bool Simulation::rules_allow(int s, int l, int end, double t) {
   if (rules_pass(s, l, end, t)) return true;
@@ -33,7 +38,10 @@ bool Simulation::rules_pass(int s, int l, int end, double t) {
   // 2. bond angle at the sphere, against every linker already bonded to it.
   if (bp.angle_filter) {
     for (const auto& [l2, e2] : graph_.linkers_of(s)) {
-      if (!angle_ok(bond_angle_deg(out, outward_axis(body_axis(bodies_, l2, t), e2)), bp)) {
+      const double theta = bond_angle_deg(out, outward_axis(body_axis(bodies_, l2, t), e2));
+      // Articulated: a held angle needs a measurable gradient (never within
+      // the study's window; core/joints.hpp, held_angle_defined).
+      if (!angle_ok(theta, bp) || (articulated_ && !held_angle_defined(theta * kRadPerDeg))) {
         ++stats_.rejected_angle;
         return false;
       }
@@ -45,6 +53,7 @@ bool Simulation::rules_pass(int s, int l, int end, double t) {
   // the neighbouring linkers' outward axes (MODEL.md).
   // The dihedral about linker c (axis uc) with neighbour axis n_at[e] at its end e.
   auto planar = [&](const Vec3& uc, const Vec3& n_end0, const Vec3& n_end1) {
+    if (articulated_ && !held_dihedral_defined(uc, n_end0, n_end1)) return false;  // could not be held
     return planarity_ok(dihedral_deg(uc, n_end0, n_end1), bp);
   };
   // (a) the new linker l: neighbours at s (this end) and at the sphere on its other end.
@@ -184,7 +193,15 @@ void Simulation::check_initial_captures() {
   for (const auto& [s, l, e] : inside) {
     if (graph_.sphere_of(l, e) >= 0) continue;
     ++stats_.captures;
-    if (rules_allow(s, l, e, 0.0)) form_bond(s, l, e, 0.0);
+    if (!rules_allow(s, l, e, 0.0)) continue;
+    if (compliant_) {
+      // An integrated cluster formed by an earlier bond of this pass: its
+      // state at t = 0 into its integrator (a rigid articulated one woken),
+      // as process_capture does.
+      touch(s, 0.0, false);
+      touch(l, 0.0, false);
+    }
+    form_bond(s, l, e, 0.0);
   }
 }
 
@@ -199,8 +216,14 @@ bool Simulation::bond_possible() const {
   // Compliant bonds: a cluster can close a ring inside itself (its bodies
   // move relative to each other; a relaxed one wakes when disturbed), so
   // every body counts as its own group.
+  // An articulated cluster with no internal freedom is carried rigidly until
+  // another bond: a rigid body again.
+  auto rigid_group = [&](int g) {
+    return !compliant_ || (g < static_cast<int>(dormant_.size()) && dormant_[g] >= 0 && cgroups_[dormant_[g]].rigid);
+  };
   auto note = [&](int b) {
-    const int key = bodies_.group[b] >= 0 && !compliant_ ? bodies_.group[b] : -1 - b;
+    const int g = bodies_.group[b];
+    const int key = g >= 0 && rigid_group(g) ? g : -1 - b;
     if (!seen) first_group = key, seen = true;
     else if (key != first_group) spread = true;
   };

@@ -4,16 +4,36 @@
 // class Simulation (core/simulation.hpp).
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <string>
 #include <tuple>
 
 #include "core/cluster.hpp"
+#include "core/constrained_dynamics.hpp"
+#include "core/joint_projection.hpp"
 #include "core/motion.hpp"
 #include "core/pose.hpp"
 #include "core/simulation.hpp"
 
 namespace ringsim {
+
+namespace {
+// A joint residual the projection cannot bring below this (length units of
+// the sphere radius; radians for held rows) is a failure, not drift.
+constexpr double kJointOpen = 1e-4;
+
+// What the integrator of group G sees for the state `model`: an articulated
+// group's model keeps its bond topology (which bonds, angles and dihedrals
+// exist) for the next bond's rules, but its joints act, not springs.
+CompliantCluster integrated_model(const CompliantGroup& G, const CompliantCluster& model) {
+  if (!G.articulated) return model;
+  CompliantCluster c;
+  c.bodies = model.bodies;
+  c.params = model.params;
+  return c;
+}
+}  // namespace
 
 IntegratorOptions Simulation::integrator_options() const {
   const CompliantParams& p = params_.compliant;
@@ -71,7 +91,17 @@ void Simulation::cut_group(int g, double t) {
   if (G.pending && G.ta == t) return;  // already cut at t (both bodies of one contact)
   CompliantCluster& st = G.integ->mutable_state();
   for (std::size_t k = 0; k < G.members.size(); ++k)
-    st.bodies[k] = member_state(bodies_, G.members[k], t, st.bodies[k], G.shift);
+    st.bodies[k] = member_state(bodies_, G.members[k], t, st.bodies[k], G.shift, G.articulated);
+  if (G.articulated) {
+    // The tracks interpolate a linker's roll: fit the rolls to the joints
+    // (invisible to the event loop). They keep the joints' velocities only to
+    // their interpolation error: project them (G nu = 0) so that an impulse
+    // or a bond at t acts on a consistent state. Positions are left as the
+    // tracks have them (continuous motion); the next slice end projects them.
+    const RollFit roll = fit_rolls(st.bodies, G.joints);
+    stats_.cut_residual = std::max(stats_.cut_residual, roll.residual_after);
+    stats_.lost_projections -= project_velocities(st.bodies, G.joints).energy_change;
+  }
   G.ta = t;
   G.pending = true;
   ++stats_.slice_cuts;
@@ -99,7 +129,8 @@ bool Simulation::begin_slice(int g, double t) {
     for (int d = 0; d < 3; ++d) G.shift[d] -= box_.length * std::floor(com[d] / box_.length);
   }
   const CompliantParams& cp = params_.compliant;
-  const SliceEnd start = follows ? std::move(G.end) : slice_end(G.integ->state());
+  const JointSet& joints = G.joints;  // empty for compliant groups
+  const SliceEnd start = follows ? std::move(G.end) : slice_end(G.integ->state(), joints);
   double D = std::min(cp.slice, G.track_slice);
   bool track_halved = false;
   double error = 0.0;
@@ -107,8 +138,32 @@ bool Simulation::begin_slice(int g, double t) {
     const AdvanceResult r = G.integ->advance_to(t + D);
     if (!r.ok()) {
       termination_ = Termination::Error;
-      error_ = "compliant cluster of " + std::to_string(G.members.size()) + " bodies: " + r.reason;
+      error_ = std::string(G.articulated ? "articulated" : "compliant") + " cluster of " +
+               std::to_string(G.members.size()) + " bodies: " + r.reason;
       return false;
+    }
+    if (G.articulated) {
+      // Drift back onto the joints at the slice end, in the integrator's own
+      // state, before the tracks are laid (they end at the projected state,
+      // so the motion stays continuous).
+      const PositionProjection pr = G.integ->project_onto_joints(params_.bonding.joint_tolerance);
+      ++stats_.projections;
+      stats_.joint_residual = std::max(stats_.joint_residual, pr.residual_before);
+      stats_.projection_size = std::max(stats_.projection_size, pr.displacement);
+      stats_.lost_projections -= pr.velocities.energy_change;
+      // Unconverged only at a singular pose (a redundant ring's left null
+      // space, core/joint_projection.cpp): recorded; an open joint ends the run.
+      stats_.joint_residual_after = std::max(stats_.joint_residual_after, pr.residual_after);
+      if (!(pr.residual_after <= kJointOpen)) {
+        termination_ = Termination::Error;
+        char msg[256];
+        std::snprintf(msg, sizeof msg,
+                      "articulated cluster of %zu bodies: a joint came %.3g apart at t = %.9g, and the position "
+                      "projection left %.3g (bonding.joint_tolerance = %.3g): lower compliant.rtol",
+                      G.members.size(), pr.residual_before, t + D, pr.residual_after, params_.bonding.joint_tolerance);
+        error_ = msg;
+        return false;
+      }
     }
     // A slice in which an axis turns by about a radian or more is halved:
     // the interpolated axis must stay well away from zero length
@@ -118,7 +173,7 @@ bool Simulation::begin_slice(int g, double t) {
     const double len = set_tracks(bodies_, G, start.bodies, t, G.integ->state().bodies, t + D);
     bool good = len >= 0.5;
     if (good && cp.track_tolerance > 0.0) {
-      G.end = slice_end(G.integ->state());
+      G.end = slice_end(G.integ->state(), joints);
       G.end_cached = true;
       error = track_error_estimate(start, G.end, D);
       good = error <= cp.track_tolerance;
@@ -154,7 +209,7 @@ void Simulation::process_slice(int i, const Event& ev, double t) {
   // the internal kinetic energy at each slice boundary; quiet for relax_time
   // in a row: carry the cluster as a rigid body.
   const CompliantParams& cp = params_.compliant;
-  if (cp.relax_energy > 0.0) {
+  if (cp.relax_energy > 0.0 && !G.articulated) {
     if (internal_kinetic_energy(G.integ->state()) <= cp.relax_energy) {
       if (std::isnan(G.quiet_since)) G.quiet_since = t;
       if (t - G.quiet_since >= cp.relax_time) {
@@ -172,7 +227,7 @@ void Simulation::process_slice(int i, const Event& ev, double t) {
   for (int m : G.members) predict(m, t);
 }
 
-void Simulation::relax_group(int g, double t, bool burst) {
+void Simulation::relax_group(int g, double t, Freeze why) {
   CompliantGroup& G = cgroups_[g];
   const CompliantCluster& st = G.integ->state();
   G.frozen_potential = potential_energy(st);
@@ -198,13 +253,30 @@ void Simulation::relax_group(int g, double t, bool burst) {
     cluster = merge_groups(bodies_, box_, G.members[0], G.members[k], t, false);
   double after = group_kinetic_energy(bodies_, G.members[0]);
   for (int m : G.members) after += 0.5 * bodies_.sp(m).i_perp * bodies_.held_spin[m].squaredNorm();
-  (burst ? stats_.lost_bursts : stats_.lost_relaxed) += before - after;
+  switch (why) {
+    case Freeze::Relaxed: stats_.lost_relaxed += before - after; ++stats_.relaxed; break;
+    case Freeze::Burst: stats_.lost_bursts += before - after; break;
+    // Its velocities were already a rigid motion (projected onto joints that
+    // leave no internal freedom): round-off.
+    case Freeze::Rigid: stats_.lost_joint_impulses += before - after; break;
+  }
+  if (G.articulated) {
+    // Each member's full orientation in the rigid body's frame: waking gives
+    // the off-axis joint anchors back where they were.
+    const Mat3& R = bodies_.clusters[cluster].orientation_at(t);
+    const Quat to_body(Mat3(R.transpose()));
+    G.frozen_rot.resize(G.members.size());
+    for (std::size_t k = 0; k < G.members.size(); ++k) G.frozen_rot[k] = to_body * st.bodies[k].q;
+  }
   retire_integrator(G);
   dormant_.resize(bodies_.clusters.size(), -1);
   dormant_[cluster] = g;
+  G.pending = false;
   G.quiet_since = std::numeric_limits<double>::quiet_NaN();
-  G.hold_until = -std::numeric_limits<double>::infinity();  // a quiet cluster wakes at any contact
-  ++stats_.relaxed;
+  // A quiet cluster wakes at any contact; a rigid articulated one only when
+  // it bonds (a contact moves it as the rigid body it is).
+  G.hold_until = why == Freeze::Rigid ? std::numeric_limits<double>::infinity()
+                                      : -std::numeric_limits<double>::infinity();
 }
 
 void Simulation::wake_cluster(int cluster, double t) {
@@ -221,6 +293,8 @@ void Simulation::wake_cluster(int cluster, double t) {
     const Vec3 omega = sp.shape == Shape::Sphere ? bodies_.held_spin[m] : body_omega(bodies_, m, t);
     bodies_.held_spin[m] = Vec3::Zero();
     st.bodies[k] = make_compliant_body(sp, x, shape_point_velocity(bodies_, m, t, x, x), body_axis(bodies_, m, t), omega);
+    if (G.articulated && sp.shape == Shape::Linker)
+      st.bodies[k].q = (Quat(c.orientation_at(t)) * G.frozen_rot[k]).normalized();
   }
   for (std::size_t k = 0; k < G.members.size(); ++k) {
     const int m = G.members[k];
@@ -231,17 +305,46 @@ void Simulation::wake_cluster(int cluster, double t) {
   c.alive = false;
   c.members.clear();
   G.shift = Vec3::Zero();
-  G.integ = std::make_unique<ClusterIntegrator>(st, t, integrator_options());
+  G.integ = std::make_unique<ClusterIntegrator>(integrated_model(G, st), t, integrator_options(), G.joints);
   // Zero-length tracks: exact poses and velocities at t until the slice begins.
   set_tracks(bodies_, G, st.bodies, t, st.bodies, t);
   G.ta = t;
   G.pending = true;
+  G.rigid = false;  // until its next bond says again
+  G.hold_until = -std::numeric_limits<double>::infinity();
   ++stats_.woken;
 }
 
+void Simulation::add_group_bond(CompliantCluster& model, JointSet& joints, int s, int l, int end) {
+  if (articulated_) add_articulated_bond(model, joints, s, l, end, params_.bonding);
+  else add_compliant_bond(model, s, l, end, params_.bonding);
+}
+
+void Simulation::start_group(int g, CompliantCluster model, double t) {
+  CompliantGroup& G = cgroups_[g];
+  retire_integrator(G);
+  if (G.articulated) {
+    // The new joints' impulse: perfectly inelastic in the held directions
+    // only (core/joint_projection.hpp), momentum and angular momentum kept.
+    stats_.lost_joint_impulses -= project_velocities(model.bodies, G.joints).energy_change;
+  }
+  G.model = model;
+  if (cluster_observer_) cluster_observer_(model, t);
+  G.integ = std::make_unique<ClusterIntegrator>(integrated_model(G, model), t, integrator_options(), G.joints);
+  G.ta = t;
+  G.pending = true;
+  if (!G.articulated) return;
+  // Model no more than the scene needs: joints that leave no internal
+  // freedom make one rigid body (exact free rotation), until the next bond.
+  G.rigid = internal_dof(model.bodies, G.joints) <= 0;
+  ++(G.rigid ? stats_.joint_rigid : stats_.joint_articulated);
+  if (G.rigid) relax_group(g, t, Freeze::Rigid);
+}
+
 void Simulation::form_compliant_bond(int s, int l, int end, double t) {
-  // Both bodies were touched at t: free ones advanced, compliant clusters cut
-  // (their integrator states are the states at t), relaxed ones woken.
+  // Both bodies were touched at t: free ones advanced, integrated clusters
+  // cut (their integrator states are the states at t), relaxed or rigid
+  // articulated ones woken.
   const BondingParams& bp = params_.bonding;
   graph_.add_bond(s, l, end, t);
   ++stats_.bonds;
@@ -249,24 +352,21 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
   if (gs >= 0 && gs == gl) {
     // A ring closing inside one cluster: new terms, a new integrator.
     CompliantGroup& G = cgroups_[gs];
-    CompliantCluster st = G.integ->state();
+    CompliantCluster st = G.model;
+    st.bodies = G.integ->state().bodies;
     const double before = potential_energy(st);
-    add_compliant_bond(st, cindex_[s], cindex_[l], end, bp);
+    add_group_bond(st, G.joints, cindex_[s], cindex_[l], end);
     bond_energy_ += potential_energy(st) - before;
-    G.model = st;
-    if (cluster_observer_) cluster_observer_(st, t);
-    retire_integrator(G);
-    G.integ = std::make_unique<ClusterIntegrator>(st, t, integrator_options());
-    G.ta = t;
-    G.pending = true;
+    start_group(gs, std::move(st), t);
     monitor_.set(t, graph_.N_t());
     return;
   }
-  // Merge the two sides (free bodies or clusters) into one compliant cluster,
-  // side s first; states in world coordinates, side l moved to the periodic
-  // image nearest to s.
+  // Merge the two sides (free bodies or clusters) into one integrated
+  // cluster, side s first; states in world coordinates, side l moved to the
+  // periodic image nearest to s.
   CompliantCluster nc;
   nc.params = params_.compliant;
+  JointSet joints;
   std::vector<int> members;
   double before = 0.0;
   auto add_side = [&](int b) {
@@ -288,11 +388,18 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
       nc.bodies.push_back(body);
       members.push_back(G.members[k]);
     }
-    for (CompliantBond x : st.bonds) nc.bonds.push_back({x.sphere + base, x.linker + base, x.end});
-    for (CompliantAngle x : st.angles)
+    // The terms (compliant springs; articulated: the topology) and joints,
+    // renumbered.
+    for (CompliantBond x : G.model.bonds) nc.bonds.push_back({x.sphere + base, x.linker + base, x.end});
+    for (CompliantAngle x : G.model.angles)
       nc.angles.push_back({x.sphere + base, x.linker_a + base, x.end_a, x.linker_b + base, x.end_b, x.theta0});
-    for (CompliantDihedral x : st.dihedrals)
+    for (CompliantDihedral x : G.model.dihedrals)
       nc.dihedrals.push_back({x.linker + base, x.nb0 + base, x.nb0_end, x.nb1 + base, x.nb1_end, x.phi0});
+    for (BallJoint x : G.joints.balls) joints.balls.push_back({x.sphere + base, x.linker + base, x.anchor});
+    for (HeldAngle x : G.joints.angles)
+      joints.angles.push_back({x.sphere + base, x.linker_a + base, x.end_a, x.linker_b + base, x.end_b, x.theta0});
+    for (HeldDihedral x : G.joints.dihedrals)
+      joints.dihedrals.push_back({x.linker + base, x.nb0 + base, x.nb0_end, x.nb1 + base, x.nb1_end, x.phi0});
     retire_integrator(G);
     G.alive = false;
     return base;
@@ -307,11 +414,12 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
     const Vec3 move = box_.min_image(xl - xs) - (xl - xs);
     for (std::size_t k = base_l; k < nc.bodies.size(); ++k) nc.bodies[k].x += move;
   }
-  add_compliant_bond(nc, index_of(s), index_of(l), end, bp);
+  add_group_bond(nc, joints, index_of(s), index_of(l), end);
   const int id = static_cast<int>(cgroups_.size());
   cgroups_.emplace_back();
   CompliantGroup& G = cgroups_.back();
   G.alive = true;
+  G.articulated = articulated_;
   G.members = members;
   for (std::size_t k = 0; k < members.size(); ++k) {
     bodies_.cgroup[members[k]] = id;
@@ -346,17 +454,12 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
     if (rules_allow(cs, cl, ce, t)) {
       ++stats_.closure_bonds;
       graph_.add_bond(cs, cl, ce, t);
-      add_compliant_bond(nc, cindex_[cs], cindex_[cl], ce, bp);
+      add_group_bond(nc, joints, cindex_[cs], cindex_[cl], ce);
       ++stats_.bonds;
     }
   }
   bond_energy_ += potential_energy(nc) - before;
-  G.model = nc;
-  if (cluster_observer_) cluster_observer_(nc, t);
-  G.integ = std::make_unique<ClusterIntegrator>(nc, t, integrator_options());
-  G.ta = t;
-  G.pending = true;
-  monitor_.set(t, graph_.N_t());
+  G.joints = std::move(joints);
   if (box_.periodic) {
     Vec3 com = Vec3::Zero();
     double mass = 0.0;
@@ -364,8 +467,10 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
     com /= mass;
     double extent = 0.0;
     for (const CompliantBody& b : nc.bodies) extent = std::max(extent, (b.x - com).norm() + b.radius + b.half_length);
-    check_cluster_extent("compliant", extent, t);
+    check_cluster_extent(articulated_ ? "articulated" : "compliant", extent, t);
   }
+  start_group(id, std::move(nc), t);
+  monitor_.set(t, graph_.N_t());
 }
 
 EnergyBudget Simulation::energy_budget() const {
@@ -378,7 +483,10 @@ EnergyBudget Simulation::energy_budget() const {
   e.rigid_merges = stats_.lost_rigid_merges;
   e.relaxed = stats_.lost_relaxed;
   e.bursts = stats_.lost_bursts;
-  e.dampers = e.initial + e.bonds_in - e.kinetic - e.potential - e.contacts - e.rigid_merges - e.relaxed - e.bursts;
+  e.joint_impulses = stats_.lost_joint_impulses;
+  e.projections = stats_.lost_projections;
+  e.dampers = e.initial + e.bonds_in - e.kinetic - e.potential - e.contacts - e.rigid_merges - e.relaxed - e.bursts -
+              e.joint_impulses - e.projections;
   return e;
 }
 

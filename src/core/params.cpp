@@ -55,6 +55,14 @@ const char* to_string(CaptureSite s) {
   return "?";
 }
 
+const char* to_string(BondJoint j) {
+  switch (j) {
+    case BondJoint::Articulated: return "articulated";
+    case BondJoint::Welded: return "welded";
+  }
+  return "?";
+}
+
 const char* to_string(CompliantMethod m) {
   switch (m) {
     case CompliantMethod::Auto: return "auto";

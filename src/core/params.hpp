@@ -23,6 +23,11 @@ enum class CoplanarityMode { CisOrTrans, Cis };
 // bond formation"): EndFace, the surface distance from the sphere to the end
 // face's disk (the Decision); EndPoint, the distance to the face's centre.
 enum class CaptureSite { EndFace, EndPoint };
+// What a rigid bond holds (MODEL.md, "Two bond regimes", rigid):
+// Articulated, a ball joint at the capture position plus the held angle and
+// dihedral the filters name (the Decision; docs/ARTICULATED.md); Welded, the
+// two clusters frozen into one rigid body in the capture pose.
+enum class BondJoint { Articulated, Welded };
 // Integrator of compliant clusters (docs/COMPLIANT.md, stability study).
 enum class CompliantMethod { Auto, Bdf, Adams, Erk };
 
@@ -77,6 +82,11 @@ struct BondingParams {
   bool coplanarity_filter = true;  // rule 3: dihedral deviation from planarity <= dphi
   double dphi_deg = 5.0;
   CoplanarityMode coplanarity_mode = CoplanarityMode::CisOrTrans;
+  // Rigid regime only (compliant bonds have their own terms).
+  BondJoint joint = BondJoint::Articulated;
+  // Articulated clusters: largest joint residual |C| (length, or radians for
+  // held angles) left by the position projection at every slice end.
+  double joint_tolerance = 1e-10;
 };
 
 // Compliant bonds (MODEL.md, "Two bond regimes", compliant): spring-damper
@@ -160,6 +170,7 @@ const char* to_string(VelocityInit v);
 const char* to_string(QueueKind q);
 const char* to_string(CoplanarityMode m);
 const char* to_string(CaptureSite s);
+const char* to_string(BondJoint j);
 const char* to_string(CompliantMethod m);
 
 }  // namespace ringsim

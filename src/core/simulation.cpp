@@ -12,6 +12,7 @@
 #include "core/cluster.hpp"
 #include "core/contact.hpp"
 #include "core/interaction_range.hpp"
+#include "core/joint_impulses.hpp"
 #include "core/pose.hpp"
 #include "core/motion.hpp"
 #include "core/validation.hpp"
@@ -109,7 +110,9 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   bodies_.counter.assign(n, 0);
   bodies_.last_collision.assign(n, -kNever);
   bodies_.free_all();
-  compliant_ = params_.bonding.enabled && params_.compliant.enabled();
+  articulated_ = params_.bonding.enabled && !params_.compliant.enabled() &&
+                 params_.bonding.joint == BondJoint::Articulated;
+  compliant_ = (params_.bonding.enabled && params_.compliant.enabled()) || articulated_;
   cindex_.assign(n, -1);
   memo_.assign(n, {});
   wall_memo_.assign(n, WallMemo{});
@@ -571,6 +574,15 @@ void Simulation::predict_group(int i, double t) {
 }
 
 void Simulation::apply_impulse(int i, const Vec3& J, const Vec3& arm) {
+  if (const int cg = bodies_.cgroup[i]; cg >= 0 && cgroups_[cg].articulated) {
+    // With the joint impulses it calls up (core/joint_impulses.hpp): the
+    // velocities end on the joints' null space, G nu = 0.
+    // cut_group projected the velocities (G nu = 0), so this is
+    // nu + W C^T J and changes the energy by what the contact law counted.
+    CompliantGroup& G = cgroups_[cg];
+    apply_point_impulse(G.integ->mutable_state().bodies, G.joints, cindex_[i], arm, J);
+    return;
+  }
   if (const int cg = bodies_.cgroup[i]; cg >= 0) {
     // The member alone takes the jump (its own mass and inertia); touch() put
     // the cluster's state at the event time into the integrator.
@@ -603,6 +615,35 @@ ContactSide contact_side(const BodyStore& b, int i, double t, const Vec3& p, con
 }
 }  // namespace
 
+void Simulation::constrain_sides(int i, int j, ContactSide* a, ContactSide* b) const {
+  // A member of an articulated cluster (not carried rigidly): its velocities
+  // are the integrator's state at the contact (cut and projected onto the
+  // joints), its share of the collision matrix C W C^T
+  // (core/joint_impulses.hpp). Two members of one cluster: the whole K with
+  // its cross terms on side a (the sum is what the contact law uses).
+  auto member = [&](int k) -> const CompliantGroup* {
+    const int cg = k >= 0 ? bodies_.cgroup[k] : -1;
+    return cg >= 0 && cgroups_[cg].articulated ? &cgroups_[cg] : nullptr;
+  };
+  auto set_state = [&](int k, const CompliantGroup& G, ContactSide* s) {
+    const CompliantBody& cb = G.integ->state().bodies[cindex_[k]];
+    s->v = cb.v;
+    s->omega = cb.shape == Shape::Sphere ? Vec3::Zero() : cb.omega;
+    s->explicit_k = true;
+  };
+  const CompliantGroup* ga = member(i);
+  const CompliantGroup* gb = member(j);
+  if (ga) set_state(i, *ga, a);
+  if (gb) set_state(j, *gb, b);
+  if (ga && ga == gb) {
+    a->k = collision_matrix(ga->integ->state().bodies, ga->joints, cindex_[i], a->arm, cindex_[j], b->arm);
+    b->k = Mat3::Zero();
+    return;
+  }
+  if (ga) a->k = collision_matrix(ga->integ->state().bodies, ga->joints, cindex_[i], a->arm);
+  if (gb) b->k = collision_matrix(gb->integ->state().bodies, gb->joints, cindex_[j], b->arm);
+}
+
 void Simulation::touch(int b, double t, bool impulse) {
   if (const int cg = bodies_.cgroup[b]; cg >= 0) {
     CompliantGroup& G = cgroups_[cg];
@@ -613,12 +654,12 @@ void Simulation::touch(int b, double t, bool impulse) {
     }
     cut_group(cg, t);
     const int burst = params_.compliant.burst_contacts;
-    if (impulse && burst > 0 && G.burst_count >= burst) {
+    if (impulse && burst > 0 && G.burst_count >= burst && !G.articulated) {
       // The end of a contact burst: the cluster takes this impulse, and
       // moves, as one rigid body (core/compliant_events.cpp).
       G.burst_count = 0;
       ++stats_.bursts;
-      relax_group(cg, t, true);
+      relax_group(cg, t, Freeze::Burst);
       G.hold_until = t + params_.compliant.burst_time;
     }
     return;
@@ -633,7 +674,7 @@ void Simulation::touch(int b, double t, bool impulse) {
     } else {
       // Held rigid after a contact burst while the contacts go on.
       rebase_cluster(bodies_.clusters[g], box_, t);
-      G.hold_until = t + params_.compliant.burst_time;
+      if (!G.rigid) G.hold_until = t + params_.compliant.burst_time;
     }
   }
   // A rigid cluster's pose, velocities and inertia at t are pure functions of
@@ -703,8 +744,9 @@ void Simulation::process_collision(int i, int j, double t) {
   const ContactGeometry g = predictor_.contact_geometry(i, j, t);
   const ContactFrame frame = predictor_.contact_frame(i, j, t, g);
   const Vec3& p = frame.point;
-  const ContactSide a = contact_side(bodies_, i, t, p, g.center_a);
-  const ContactSide b = contact_side(bodies_, j, t, p, g.center_b);
+  ContactSide a = contact_side(bodies_, i, t, p, g.center_a);
+  ContactSide b = contact_side(bodies_, j, t, p, g.center_b);
+  if (articulated_) constrain_sides(i, j, &a, &b);
   const ContactLaw law = pair_law(i, j, t);
   if (const std::optional<ContactResult> r = fired_contact(a, b, frame.normal, law)) {
     apply_impulse(i, -r->impulse, a.arm);
@@ -747,8 +789,9 @@ void Simulation::process_wall(int i, const Event& ev, double t) {
   n[ev.dim] = ev.dir;  // from the body towards the wall
   Vec3 p;
   predictor_.wall_contact(i, t, n, &p);
-  const ContactSide body = contact_side(bodies_, i, t, p, body_center(bodies_, i, t));
+  ContactSide body = contact_side(bodies_, i, t, p, body_center(bodies_, i, t));
   ContactSide wall{0.0, Mat3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  if (articulated_) constrain_sides(i, -1, &body, &wall);
   const ContactParams& cp = params_.contact;
   ContactLaw law{combine(cp.restitution_rule, s.restitution, cp.restitution_wall),
                  combine(cp.friction_rule, s.static_friction, cp.static_friction_wall),

@@ -75,6 +75,17 @@ struct RunStats {
   std::int64_t relaxed = 0;          // switches of a relaxed cluster to a rigid body
   std::int64_t woken = 0;            // relaxed clusters returned to the integrator
   std::int64_t bursts = 0;           // clusters made rigid by a contact burst
+  // Articulated bonds (docs/ARTICULATED.md): clusters formed or changed by a
+  // bond, by what their joints leave them (internal_dof 0: moved as one rigid
+  // body; else integrated with its constraints); slice-end projections and
+  // the largest joint residual they found (|C|, before) and the largest
+  // correction (M-norm of the position change).
+  std::int64_t joint_rigid = 0, joint_articulated = 0;
+  std::int64_t projections = 0;
+  double joint_residual = 0.0;
+  double joint_residual_after = 0.0;  // largest |C| a projection left (above bonding.joint_tolerance: singular poses)
+  double projection_size = 0.0;
+  double cut_residual = 0.0;  // largest |C| at a cut (track error), after the rolls' fit
   std::int64_t sundials_steps = 0;   // integrator steps, all clusters
   std::int64_t sundials_rhs = 0;     // right-hand-side evaluations, all clusters
   double sundials_seconds = 0.0;     // wall time inside the integrators
@@ -84,6 +95,8 @@ struct RunStats {
   double lost_rigid_merges = 0.0;    // rigid bonds: perfectly inelastic merges
   double lost_relaxed = 0.0;         // relaxed-cluster switches to rigid motion
   double lost_bursts = 0.0;          // contact bursts ending in rigid motion
+  double lost_joint_impulses = 0.0;  // articulated bonds: impulses making new joints' velocities consistent
+  double lost_projections = 0.0;     // articulated clusters: velocity projections at cuts and slice ends
 };
 
 // Where a run's time goes (ringsim replicate --profile; docs/OUTPUT.md,
@@ -135,6 +148,7 @@ struct EnergyBudget {
   double kinetic = 0.0;    // now
   double potential = 0.0;  // compliant clusters' springs, now
   double contacts = 0.0, rigid_merges = 0.0, relaxed = 0.0, bursts = 0.0;  // RunStats::lost_*
+  double joint_impulses = 0.0, projections = 0.0;                          // RunStats::lost_*
   double dampers = 0.0;    // the rest
 };
 
@@ -302,6 +316,10 @@ class Simulation {
   void process_wall(int i, const Event& ev, double t);
   void process_cell(int i, const Event& ev, double t);
   void apply_impulse(int i, const Vec3& J, const Vec3& arm);
+  // Articulated members among the contact's bodies i and j (j < 0: a wall):
+  // their sides take the integrator's velocities and the constrained
+  // collision matrix.
+  void constrain_sides(int i, int j, ContactSide* a, ContactSide* b) const;
   // Makes body b's state at t current before an impulse or a bond: a free
   // body advanced (a rigid cluster needs nothing: cluster_impulse re-bases
   // it), a compliant cluster cut (its
@@ -312,10 +330,20 @@ class Simulation {
   void cut_group(int g, double t);
   bool begin_slice(int g, double t);
   void process_slice(int i, const Event& ev, double t);
-  // burst: the switch ends a contact burst (else the cluster relaxed).
-  void relax_group(int g, double t, bool burst = false);
+  // Why a group becomes a rigid body: it relaxed, a contact burst ended, or
+  // (articulated) its joints leave it no internal freedom.
+  enum class Freeze { Relaxed, Burst, Rigid };
+  void relax_group(int g, double t, Freeze why = Freeze::Relaxed);
   void wake_cluster(int cluster, double t);
   void form_compliant_bond(int s, int l, int end, double t);
+  // Adds the bond's terms to the group's model (compliant springs, or
+  // articulated joints: the topology is the same code).
+  void add_group_bond(CompliantCluster& model, JointSet& joints, int s, int l, int end);
+  // The group's integrator for the state `model` at t (articulated: the
+  // joints, no spring terms), or, when its joints leave no internal freedom,
+  // the group frozen into one rigid body. The new bonds' velocity impulse
+  // (articulated) is applied first.
+  void start_group(int g, CompliantCluster model, double t);
   IntegratorOptions integrator_options() const;
   // Periodic boxes: a cluster wider than a quarter of the box ends the run
   // with an error (minimum images would be ambiguous).
@@ -384,7 +412,10 @@ class Simulation {
   std::string error_;
   Vec3 ext_impulse_ = Vec3::Zero();
   Vec3 ext_angular_ = Vec3::Zero();
-  bool compliant_ = false;               // compliant bonds (params.compliant.enabled())
+  // Integrated clusters: compliant bonds (params.compliant.enabled()) or
+  // articulated ones (bonding.joint = articulated in the rigid regime).
+  bool compliant_ = false;
+  bool articulated_ = false;
   std::vector<CompliantGroup> cgroups_;  // by id; retired ones stay (alive false)
   std::vector<int> cindex_;              // body -> its index in its compliant group's model
   std::vector<int> dormant_;             // rigid cluster id -> the relaxed compliant group it carries, or -1

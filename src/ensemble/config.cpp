@@ -128,6 +128,10 @@ struct EnumValues<CaptureSite> {
   static constexpr std::array all{CaptureSite::EndFace, CaptureSite::EndPoint};
 };
 template <>
+struct EnumValues<BondJoint> {
+  static constexpr std::array all{BondJoint::Articulated, BondJoint::Welded};
+};
+template <>
 struct EnumValues<CompliantMethod> {
   static constexpr std::array all{CompliantMethod::Auto, CompliantMethod::Bdf, CompliantMethod::Adams,
                                   CompliantMethod::Erk};
@@ -360,6 +364,14 @@ const std::vector<KeyDesc>& key_table() {
           "half-width Delta_phi (degrees) of the coplanarity window, boundary included"),
       key<&S::bonding, &B::coplanarity_mode>("bonding.coplanarity_mode", any(),
           "planar dihedrals: cis-or-trans (deviation min(|phi|, 180 - |phi|)) or cis (deviation |phi|)"),
+      key<&S::bonding, &B::joint>("bonding.joint", any(),
+          "what a rigid bond holds: articulated (a ball joint at the capture position, plus the bond angle and "
+          "dihedrals the filters name, held at their values; every other freedom stays free, so chains flex "
+          "and rings close; docs/ARTICULATED.md) or welded (the two clusters become one rigid body in the "
+          "capture pose; rings practically never close). Compliant bonds (compliant.k > 0) ignore it"),
+      key<&S::bonding, &B::joint_tolerance>("bonding.joint_tolerance", greater(0),
+          "articulated clusters: largest joint residual (length; radians for held angles) the position "
+          "projection leaves at each slice end"),
 
       key<&S::compliant, &P::k>("compliant.k", at_least(0),
           "bond spring k (force/length) on the vector from a bonded sphere's centre to its target point on the "
@@ -785,14 +797,16 @@ void check_cross(const SimParams& p, const Origins& origins, Problems& problems)
   // Compliant clusters carry a sphere's spin as a constant (no compliant load
   // turns a smooth sphere, core/compliant.hpp): frictional sphere contacts,
   // which would change it, are refused rather than run with a wrong torque.
-  if (p.compliant.enabled() && (p.contact.static_friction_sphere > 0.0 || p.contact.dynamic_friction_sphere > 0.0)) {
+  // Articulated clusters likewise: a sphere is a point mass on its joints.
+  const bool integrated = p.bonding.enabled && (p.compliant.enabled() || p.bonding.joint == BondJoint::Articulated);
+  if (integrated && (p.contact.static_friction_sphere > 0.0 || p.contact.dynamic_friction_sphere > 0.0)) {
     const char* key = p.contact.static_friction_sphere > 0.0 ? "contact.static_friction_sphere"
                                                               : "contact.dynamic_friction_sphere";
     const double value = std::max(p.contact.static_friction_sphere, p.contact.dynamic_friction_sphere);
     problems.add(2, 0, 0,
                  origin(origins, key) + key + " = " + format_real(value) +
-                     ": must be 0 with compliant bonds (compliant.k or compliant.k_omega > 0): compliant clusters "
-                     "model smooth spheres");
+                     ": must be 0 with compliant bonds (compliant.k or compliant.k_omega > 0) and with "
+                     "bonding.joint = articulated: their clusters model smooth spheres (use bonding.joint = welded)");
   }
 
   // A steady-state test needs enough batch means to say "not steady"

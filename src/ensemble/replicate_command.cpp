@@ -143,6 +143,17 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
                       {"sundials_steps", s.sundials_steps}, {"sundials_rhs", s.sundials_rhs},
                       {"sundials_seconds", s.sundials_seconds}};
   }
+  const bool articulated = params.bonding.enabled && !params.compliant.enabled() &&
+                           params.bonding.joint == BondJoint::Articulated;
+  if (articulated) {
+    j["articulated"] = {{"rigid_formations", s.joint_rigid},     {"articulated_formations", s.joint_articulated},
+                        {"slices", s.slices},                    {"slice_cuts", s.slice_cuts},
+                        {"projections", s.projections},          {"max_joint_residual", s.joint_residual},
+                        {"max_residual_after_projection", s.joint_residual_after},
+                        {"max_cut_residual", s.cut_residual},
+                        {"max_projection", s.projection_size},   {"sundials_steps", s.sundials_steps},
+                        {"sundials_rhs", s.sundials_rhs},        {"sundials_seconds", s.sundials_seconds}};
+  }
   j["t_end"] = sim.time();
   j["termination"] = to_string(term);
   if (term == Termination::Error) j["error"] = sim.error();
@@ -156,6 +167,10 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
                           {"potential", e.potential},   {"lost_contacts", e.contacts},
                           {"lost_rigid_merges", e.rigid_merges}, {"lost_relaxed", e.relaxed},
                           {"lost_bursts", e.bursts},    {"lost_dampers", e.dampers}};
+    if (articulated) {
+      j["energy_budget"]["lost_joint_impulses"] = e.joint_impulses;
+      j["energy_budget"]["lost_projections"] = e.projections;
+    }
   }
   // The study's observables (MODEL.md, "Observables"), at the final time.
   const Observables o = sim.graph().observables(sim.time());
