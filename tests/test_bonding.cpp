@@ -708,9 +708,12 @@ TEST(RigidRingClosure, FourCornersInPerfectSquareGeometryCloseIntoOneTarget) {
   EXPECT_NEAR(obs.tau_tar, sim.time(), 1e-12);
 }
 
-SimParams scenario_params(bool angle, bool coplanar) {
+// The welded reading unless told: these runs and their figures predate the
+// articulated joints (the default), whose own runs say so.
+SimParams scenario_params(bool angle, bool coplanar, BondJoint joint = BondJoint::Welded) {
   SimParams p;  // the built-in defaults: 300 + 300, box 50, rigid bonds
   p.bonding.enabled = true;
+  p.bonding.joint = joint;
   p.bonding.angle_filter = angle;
   p.bonding.coplanarity_filter = coplanar;
   return p;
@@ -730,9 +733,24 @@ void validation_run(SimParams p, std::uint64_t seed, std::int64_t events, int mi
   EXPECT_EQ(r.overlaps, 0) << "first overlap at t = " << r.first_overlap_time;
   EXPECT_EQ(r.missed_captures, 0) << "first missed capture at t = " << r.first_missed_capture_time;
   EXPECT_LT(r.max_momentum_error, 1e-11);
-  EXPECT_LT(r.max_angular_momentum_error, 1e-11);
+  // Articulated clusters keep angular momentum exactly in their equations of
+  // motion (internal constraint forces, ARTICULATED.md) but only to the
+  // integrator's tolerance on their numerical trajectory (quadratic in the
+  // state, like the energy); welded clusters turn by the exact free rotation.
+  const bool articulated = p.bonding.joint == BondJoint::Articulated;
+  EXPECT_LT(r.max_angular_momentum_error, articulated ? p.compliant.rtol : 1e-11);
   EXPECT_LT(r.max_energy_error, 1e-11);  // bonds only remove energy
   EXPECT_GE(sim.stats().bonds, min_bonds) << "t = " << sim.time();
+  if (articulated) {
+    // Joints kept: the largest residual any slice end found before its
+    // projection, and what the projections left.
+    EXPECT_LT(sim.stats().joint_residual, 1e-5);
+    EXPECT_LT(sim.stats().joint_residual_after, 1e-6);
+    EXPECT_GT(sim.stats().joint_articulated, 0);
+    std::printf("articulated: formations rigid %ld articulated %ld, slices %ld, joint residual %.1e (after %.1e)\n",
+                (long)sim.stats().joint_rigid, (long)sim.stats().joint_articulated, (long)sim.stats().slices,
+                sim.stats().joint_residual, sim.stats().joint_residual_after);
+  }
   std::printf("%s: events %ld t %.3f bonds %ld overlaps %ld missed captures %ld dp %.2e dL %.2e dE %.2e\n", to_string(p.bonding.capture_site), (long)sim.stats().events, sim.time(), (long)sim.stats().bonds, (long)r.overlaps, (long)r.missed_captures, r.max_momentum_error, r.max_angular_momentum_error, r.max_energy_error);
 }
 
@@ -740,6 +758,16 @@ TEST(ValidationWithBonds, Scenario1BaselineNoOverlapsConservation) { validation_
 TEST(ValidationWithBonds, Scenario2BondAngleNoOverlapsConservation) { validation_run(scenario_params(true, false), 23, 8000, 5); }
 TEST(ValidationWithBonds, Scenario3CoplanarityNoOverlapsConservation) { validation_run(scenario_params(false, true), 24, 8000, 5); }
 TEST(ValidationWithBonds, Scenario4PassiveSelectionNoOverlapsConservation) { validation_run(scenario_params(true, true), 22, 12000); }
+// The same checks with articulated joints (the default reading).
+TEST(ValidationWithBonds, ArticulatedScenario1NoOverlapsConservation) {
+  validation_run(scenario_params(false, false, BondJoint::Articulated), 21, 6000);
+}
+TEST(ValidationWithBonds, ArticulatedScenario2NoOverlapsConservation) {
+  validation_run(scenario_params(true, false, BondJoint::Articulated), 23, 5000, 5);
+}
+TEST(ValidationWithBonds, ArticulatedScenario3NoOverlapsConservation) {
+  validation_run(scenario_params(false, true, BondJoint::Articulated), 24, 5000, 5);
+}
 TEST(ValidationWithBonds, Scenario6LowDensityNoOverlapsConservation) {
   SimParams p = scenario_params(true, true);
   p.init.spheres = p.init.linkers = 150;
@@ -865,14 +893,18 @@ TEST(RigidCluster, ClusterFlyingTwoTurnsWithoutAnImpulseStillCollides) {
 
 TEST(Termination, NoBondPossibleOnceTheOnlyOpenSitesShareACluster) {
   // One sphere and one linker: after the capture the sphere has one free
-  // valency and the linker one free end, but they are one rigid body.
-  SimParams p = bonding_params();
-  const Vec3 c(20, 20, 20);
-  BodyStore b = make_bodies(p, {{Shape::Sphere, c + Vec3(10, 0, 0), Vec3(-1, 0, 0), Vec3::UnitZ(), kZero},
-                                {Shape::Linker, c, kZero, Vec3::UnitX(), kZero}});
-  Simulation sim(p, std::move(b));
-  EXPECT_EQ(sim.run(), Termination::NoBondPossible);
-  EXPECT_NEAR(sim.time(), 6.9, 1e-8);
+  // valency and the linker one free end, but they are one rigid body, welded
+  // or articulated (one ball joint leaves the pair no internal freedom).
+  for (BondJoint joint : {BondJoint::Welded, BondJoint::Articulated}) {
+    SimParams p = bonding_params();
+    p.bonding.joint = joint;
+    const Vec3 c(20, 20, 20);
+    BodyStore b = make_bodies(p, {{Shape::Sphere, c + Vec3(10, 0, 0), Vec3(-1, 0, 0), Vec3::UnitZ(), kZero},
+                                  {Shape::Linker, c, kZero, Vec3::UnitX(), kZero}});
+    Simulation sim(p, std::move(b));
+    EXPECT_EQ(sim.run(), Termination::NoBondPossible) << to_string(joint);
+    EXPECT_NEAR(sim.time(), 6.9, 1e-8) << to_string(joint);
+  }
 }
 
 TEST(Termination, ConstantNtIsSteadyAtTheFirstCheck) {
@@ -894,8 +926,8 @@ TEST(Termination, ConstantNtIsSteadyAtTheFirstCheck) {
 }
 
 TEST(Determinism, SameSeedSameObservables) {
-  SimParams p = scenario_params(false, false);
-  p.run.t_max = 60.0;
+  SimParams p = scenario_params(false, false, BondJoint::Articulated);  // integrated clusters too
+  p.run.t_max = 30.0;
   p.run.steady_state = false;
   auto once = [&]() {
     Simulation sim(p, build_scene(p, 5, 3, nullptr));
