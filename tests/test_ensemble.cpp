@@ -27,13 +27,17 @@ using namespace ringsim;
 namespace {
 
 // A small scene whose replicates take a fraction of a second, with bonds
-// and run-to-run variation (t_max, not steady state, ends them).
+// and run-to-run variation (t_max, not steady state, ends them). These tests
+// are about the runner (ranks, HDF5, resume, signals), not the physics: the
+// welded reading keeps the replicates short and their timing steady.
 const std::string kFast =
-    " --set init.spheres=60 --set init.linkers=60 --set geometry.box_length=25 --set run.t_max=25";
+    " --set init.spheres=60 --set init.linkers=60 --set geometry.box_length=25 --set run.t_max=25"
+    " --set bonding.joint=welded";
 
 // Longer replicates (~0.3 s) for the tests that interrupt a running ensemble.
 const std::string kSlow =
-    " --set init.spheres=60 --set init.linkers=60 --set geometry.box_length=25 --set run.t_max=250";
+    " --set init.spheres=60 --set init.linkers=60 --set geometry.box_length=25 --set run.t_max=250"
+    " --set bonding.joint=welded";
 
 struct Cmd {
   int status;

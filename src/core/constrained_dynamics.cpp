@@ -53,17 +53,26 @@ Eigen::MatrixXd MassMatrix::dense() const {
   return m;
 }
 
-MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m) : rows_(int(g.rows())) {
+MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m, bool rank_revealing)
+    : rows_(int(g.rows())) {
   minv_gt_ = m.inverse_times(Eigen::MatrixXd(g.transpose()));
   s_ = g * minv_gt_;
   if (rows_ == 0) return;
+  if (!rank_revealing) {
+    ldlt_.compute(s_);
+    if (ldlt_.info() == Eigen::Success) {
+      const Eigen::VectorXd d = ldlt_.vectorD();
+      full_ = d.minCoeff() > kRankThreshold * d.cwiseAbs().maxCoeff();
+    }
+    if (full_) return;
+  }
   cod_.setThreshold(kRankThreshold);
   cod_.compute(s_);
 }
 
 Eigen::VectorXd MultiplierSolve::solve(const Eigen::VectorXd& rhs) const {
   if (rows_ == 0) return Eigen::VectorXd(0);
-  return cod_.solve(rhs);
+  return full_ ? Eigen::VectorXd(ldlt_.solve(rhs)) : Eigen::VectorXd(cod_.solve(rhs));
 }
 
 Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, const MassMatrix& m,
@@ -107,7 +116,7 @@ int internal_dof(const std::vector<CompliantBody>& bodies, const JointSet& joint
   const MassMatrix m(bodies);
   JointRows rows;
   joint_rows(bodies, m.layout, joints, rows);
-  const MultiplierSolve solve(rows.g, m);
+  const MultiplierSolve solve(rows.g, m, true);
   return m.layout.size - solve.rank() - 6;
 }
 

@@ -244,7 +244,8 @@ resumed_ok() {  # resumed_ok JOB LOG: after the requeue the job started again an
 # (Scenario first: `ringsim run`'s --set takes every following word as a value.)
 R=60
 seed=11
-sets=(--set run.t_max=300)
+# The job machinery, not the physics: the welded reading keeps replicates short.
+sets=(--set run.t_max=300 --set bonding.joint=welded)
 scenarios=(1-baseline 4-passive-selection)
 
 # --- 1. the study: job array + dependent aggregation, one task requeued ---------
