@@ -194,10 +194,11 @@ void Simulation::check_initial_captures() {
     if (graph_.sphere_of(l, e) >= 0) continue;
     ++stats_.captures;
     if (!rules_allow(s, l, e, 0.0)) continue;
-    if (compliant_) {
-      // An integrated cluster formed by an earlier bond of this pass: its
-      // state at t = 0 into its integrator (a rigid articulated one woken),
-      // as process_capture does.
+    if (articulated_) {
+      // A rigid articulated cluster formed by an earlier bond of this pass
+      // is carried rigidly: wake it (and cut an integrated one), as
+      // process_capture does. (Compliant clusters formed at t = 0 need
+      // neither: their integrators stand at t = 0.)
       touch(s, 0.0, false);
       touch(l, 0.0, false);
     }

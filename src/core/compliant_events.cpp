@@ -254,8 +254,9 @@ void Simulation::relax_group(int g, double t, Freeze why) {
   double after = group_kinetic_energy(bodies_, G.members[0]);
   for (int m : G.members) after += 0.5 * bodies_.sp(m).i_perp * bodies_.held_spin[m].squaredNorm();
   switch (why) {
+    // (RunStats::relaxed counts the switches of both kinds.)
     case Freeze::Relaxed: stats_.lost_relaxed += before - after; ++stats_.relaxed; break;
-    case Freeze::Burst: stats_.lost_bursts += before - after; break;
+    case Freeze::Burst: stats_.lost_bursts += before - after; ++stats_.relaxed; break;
     // Its velocities were already a rigid motion (projected onto joints that
     // leave no internal freedom): round-off.
     case Freeze::Rigid: stats_.lost_joint_impulses += before - after; break;
