@@ -365,7 +365,7 @@ TEST_F(Ensemble, AggregateMergesShardsDropsDuplicatesAndSeparatesConfigurations)
   EXPECT_EQ(g[0].records.size(), 5u);  // 3 + 2 distinct (seed, id)
   EXPECT_EQ(g[0].duplicates, 3);       // the second copy of a
   EXPECT_EQ(g[0].conflicts, 0);
-  EXPECT_NE(g[1].sweep.find("run.t_max=25, bonding.dtheta_deg=10"), std::string::npos) << g[1].sweep;
+  EXPECT_NE(g[1].sweep.find("run.t_max=25, bonding.joint=welded, bonding.dtheta_deg=10"), std::string::npos) << g[1].sweep;
   const Cmd csv = shell(binary() + " aggregate " + a + " " + b + " " + other + " --format csv");
   ASSERT_EQ(csv.status, 0) << csv.out;
   EXPECT_NE(csv.out.find("dtheta_deg=10"), std::string::npos) << csv.out;
