@@ -199,8 +199,11 @@ wait_for_state() {  # wait_for_state JOB 'REGEX' [SECONDS]: until every record o
 attr_complete() {  # the root attribute `complete` of a result file
   h5dump -a /complete "$1" 2> /dev/null | sed -n 's/^ *(0): *//p'
 }
-csv_column() {  # csv_column FILE COLUMN: that column of every data row
-  awk -F, -v c="$2" 'NR == 1 { for (i = 1; i <= NF; i++) if ($i == c) k = i; next } k { print $k }' "$1"
+csv_column() {  # csv_column FILE COLUMN: that column of every data row (quoted fields may hold commas)
+  /usr/bin/python3 -c 'import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+for r in rows:
+    if sys.argv[2] in r: print(r[sys.argv[2]])' "$1" "$2"
 }
 all_equal() {  # all_equal VALUE LINES: every line equals VALUE (and there is one)
   [ -n "$2" ] && ! grep -qvx -- "$1" <<< "$2"
