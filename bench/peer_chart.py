@@ -22,12 +22,12 @@ ringsim's settings are its accuracy knob run.contact_tolerance; the peer's
 are dt, in single precision (ringsim_peer) and, when given, double
 (ringsim_peer64). Output in OUT: runs/*.jsonl (one JSON line per replicate,
 reused when complete, so an interrupted study resumes), <study>.csv and
-<study>.png.
+<study>.png (or --chart BASE: BASE.csv and BASE.png).
 
 Usage:
   /usr/bin/python3 bench/peer_chart.py gas --ringsim build/ringsim \\
       --peer build/bench/peer/ringsim_peer [--peer64 build/bench/peer/ringsim_peer64] \\
-      --out OUT [-R 2] [--t-max 500] [--dts 0.05,0.02,0.01,0.005,0.002] [--plot-only]
+      --out OUT [-R 2] [--t-max 500] [--dts 0.05,0.02,0.01,0.005,0.002] [--plot-only] [--chart BASE]
   /usr/bin/python3 bench/peer_chart.py scenario --scenario jobs/scenarios/4-passive-selection.toml \\
       --ringsim build/ringsim --peer build/bench/peer/ringsim_peer --out OUT [-R 8] [--t-max 5000]
 
@@ -215,6 +215,8 @@ def plot(path, table, panels, title):
             ys = [max(y, floor) for _, y, _ in pts]
             ax.plot([x for x, _, _ in pts], ys, marker=marker, color=colour, label=method)
             for (x, y, lab), yy in zip(pts, ys):
+                if method == "ringsim" and lab == "1e-9" and ("diff" in key or "collision" in key):
+                    lab += " (reference)"
                 ax.annotate(lab, (x, yy), fontsize=7, xytext=(3, 3), textcoords="offset points")
         ax.set_xscale("log")
         ax.set_yscale("log")
@@ -243,6 +245,8 @@ def main():
     ap.add_argument("--set", action="append", default=[], help="extra SECTION.KEY=VALUE for both methods")
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--plot-only", action="store_true")
+    ap.add_argument("--chart", default=None,
+                    help="write the chart to CHART.csv and CHART.png (default OUT/<study tag>)")
     a = ap.parse_args()
     if a.study == "scenario" and a.scenario is None:
         sys.exit("peer_chart: the scenario study needs --scenario FILE")
@@ -266,9 +270,10 @@ def main():
         panels = [(ob + "_diff", f"|paired diff of {ob} from ringsim| (floor 1e-4)", 1e-4)
                   for ob in ["N_t", "M_mono", "Phi_viab"]]
         title = f"{name}, R = {a.R}: peer (welded) against ringsim, same seeds"
-    write_csv(out / f"{name}.csv", table)
-    plot(out / f"{name}.png", table, panels, title)
-    print(f"wrote {out / (name + '.csv')} and {out / (name + '.png')}")
+    base = pathlib.Path(a.chart) if a.chart else out / name
+    write_csv(base.with_suffix(".csv"), table)
+    plot(base.with_suffix(".png"), table, panels, title)
+    print(f"wrote {base.with_suffix('.csv')} and {base.with_suffix('.png')}")
 
 
 if __name__ == "__main__":
