@@ -16,16 +16,17 @@ row() {  # label, then the peer's arguments
   shift
   local json rc=0
   json=$("$PEER" --seed "$SEED" --set run.t_max="$T" "$@") || rc=$?
-  /usr/bin/python3 -c '
-import json, sys
-label, rc, j = sys.argv[1], sys.argv[2], json.loads(sys.argv[3])
+  PEER_JSON=$json /usr/bin/python3 - "$label" "$rc" <<'PY'
+import json, os, sys
+label, rc = sys.argv[1], sys.argv[2]
+j = json.loads(os.environ["PEER_JSON"])
 p = j["peer"]
-fails = ", ".join(f"{k} {v[\"count\"]} (first t = {v[\"first_t\"]:.4g})"
+fails = ", ".join("{} {} (first t = {:.4g})".format(k, v["count"], v["first_t"])
                   for k, v in p["failures"].items() if v["count"])
-print(f"| {label} | {j[\"termination\"]} (exit {rc}) | {p[\"energy_drift\"]:+.3g} | {p[\"max_penetration\"]:.3g} "
-      f"| {j[\"collisions\"]} | {j[\"bonds\"]} | {p[\"max_bond_drift\"]:.3g} / {p[\"max_bond_angle_drift_deg\"]:.3g} "
-      f"| {fails or \"none\"} | {j[\"wall_seconds\"]:.1f} |")
-' "$label" "$rc" "$json"
+print("| {} | {} (exit {}) | {:+.3g} | {:.3g} | {} | {} | {:.3g} / {:.3g} | {} | {:.1f} |".format(
+    label, j["termination"], rc, p["energy_drift"], p["max_penetration"], j["collisions"], j["bonds"],
+    p["max_bond_drift"], p["max_bond_angle_drift_deg"], fails or "none", j["wall_seconds"]))
+PY
 }
 echo "| run (seed $SEED, T = $T) | termination | energy drift | max penetration | collisions | bonds | bond drift (length / deg) | failures recorded | wall s |"
 echo "|---|---|---|---|---|---|---|---|---|"

@@ -31,7 +31,10 @@ int main(int argc, char** argv) {
   app.add_option("scenario", scenario, "scenario file (TOML); none: built-in defaults");
   app.add_option("--seed", seed, "random seed (as ringsim replicate)");
   app.add_option("--replicate", replicate, "replicate index (as ringsim replicate)");
-  app.add_option("--set", sets, "SECTION.KEY=VALUE override (repeatable)");
+  app.add_option("--set", sets, "SECTION.KEY=VALUE override (repeatable)")
+      ->expected(1)  // one value per --set, so a scenario file after it stays positional
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   app.add_option("--dt", opt.dt, "time step")->check(CLI::PositiveNumber);
   app.add_flag("--bullet-defaults", opt.bullet_defaults, "Bullet's stock contact settings (docs/PEER.md)");
   app.add_option("--iterations", opt.solver_iterations, "solver iterations per step")->check(CLI::PositiveNumber);
