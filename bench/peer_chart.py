@@ -16,7 +16,9 @@ Two studies, each one command:
   scenario   a scenario file with bonding (welded bonds in the peer), R
              replicates per setting: the observables N_t, Phi_viab, M_mono,
              S4, Phi_obj, the peer's paired difference from ringsim (same
-             seeds) with a 95 % CI (Student t), and cost.
+             seeds) with a 95 % CI (Student t), and cost. Both run welded
+             bonds (--set bonding.joint=welded, passed to ringsim when it
+             knows the key; the peer has no other reading yet).
 
 ringsim's settings are its accuracy knob run.contact_tolerance; the peer's
 are dt, in single precision (ringsim_peer) and, when given, double
@@ -93,6 +95,13 @@ def energy_drift(row):
     return e / row["energy_budget"]["initial"] - 1.0
 
 
+def knows_joint_key(ringsim):
+    """Whether this ringsim has the key bonding.joint (older builds are
+    welded only and refuse the key)."""
+    p = subprocess.run([ringsim, "keys"], capture_output=True, text=True)
+    return any(line.startswith("bonding.joint ") for line in p.stdout.splitlines())
+
+
 def settings(a):
     """(method, label, command maker) for every setting of the study."""
     out = []
@@ -100,14 +109,17 @@ def settings(a):
     sets = ["--set", f"run.t_max={a.t_max}"] + sum((["--set", s] for s in a.set), [])
     if a.study == "gas":
         sets += ["--set", "bonding.enabled=false"]
+    # Both methods in the same bond reading: the peer has welded bonds only.
+    joint = ["--set", "bonding.joint=welded"] if a.study == "scenario" else []
+    ringsim_joint = joint if joint and knows_joint_key(a.ringsim) else []
     for tol in TOLERANCES:
         out.append(("ringsim", tol, lambda r, tol=tol: [a.ringsim, "replicate", *base, "--seed", str(a.seed),
-                                                        "--replicate", str(r), "--json", *sets,
+                                                        "--replicate", str(r), "--json", *sets, *ringsim_joint,
                                                         "--set", f"run.contact_tolerance={tol}"]))
     peers = [("bullet-float", a.peer)] + ([("bullet-double", a.peer64)] if a.peer64 else [])
     for method, exe in peers:
         for dt in a.dts.split(","):
-            extra = ["--set", "bonding.joint=welded"] if a.study == "scenario" else []
+            extra = joint
             out.append((method, dt, lambda r, exe=exe, dt=dt, extra=extra: [
                 exe, *base, "--seed", str(a.seed), "--replicate", str(r), "--dt", dt, *sets, *extra]))
     return out
