@@ -16,4 +16,5 @@ $SUDO apt-get install -y -qq --no-install-recommends \
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev \
   libboost-math-dev librandom123-dev \
   python3-numpy python3-scipy python3-h5py python3-pandas python3-matplotlib \
-  hyperfine
+  hyperfine \
+  libbullet-dev

@@ -1,0 +1,325 @@
+#!/usr/bin/python3
+"""Cost against error: ringsim's exact core against the time-stepped Bullet
+peer (bench/peer, issue 35, docs/PEER.md).
+
+Two studies, each one command:
+
+  gas        the hard-body gas (the built-in scene with bonding off: 300
+             spheres + 300 linkers, box 50, restitution 1) to t = T. Per
+             method and setting, R replicates; replicate r of every setting
+             starts from the same scene. Errors: |energy drift| (final
+             kinetic energy / initial - 1), the collision count against
+             ringsim's at its default tolerance on the same replicate
+             (|ratio - 1|), and the largest penetration (ringsim's contacts
+             fire at a gap in [delta/2, delta]: none). Cost: median wall
+             seconds per replicate (set-up included).
+  scenario   a scenario file with bonding (welded bonds in the peer), R
+             replicates per setting: the observables N_t, Phi_viab, M_mono,
+             S4, Phi_obj, the peer's paired difference from ringsim (same
+             seeds) with a 95 % CI (Student t), and cost. Both run welded
+             bonds (--set bonding.joint=welded, passed to ringsim when it
+             knows the key; the peer has no other reading yet).
+
+ringsim's settings are its accuracy knob run.contact_tolerance; the peer's
+are dt, in single precision (ringsim_peer) and, when given, double
+(ringsim_peer64). Output in OUT: runs/*.jsonl (one JSON line per replicate,
+reused when complete, so an interrupted study resumes), <study>.csv and
+<study>.png (or --chart BASE: BASE.csv and BASE.png).
+
+Usage:
+  /usr/bin/python3 bench/peer_chart.py gas --ringsim build/ringsim \\
+      --peer build/bench/peer/ringsim_peer [--peer64 build/bench/peer/ringsim_peer64] \\
+      --out OUT [-R 2] [--t-max 500] [--dts 0.05,0.02,0.01,0.005,0.002] [--plot-only] [--chart BASE]
+  /usr/bin/python3 bench/peer_chart.py scenario --scenario jobs/scenarios/4-passive-selection.toml \\
+      --ringsim build/ringsim --peer build/bench/peer/ringsim_peer --out OUT [-R 8] [--t-max 5000]
+
+The runs go one at a time (--jobs 1) so that wall times are not shared.
+"""
+import argparse
+import concurrent.futures as cf
+import csv
+import json
+import math
+import pathlib
+import statistics
+import subprocess
+import sys
+
+TOLERANCES = ["1e-10", "1e-9", "1e-7", "1e-5"]
+DTS = "0.05,0.02,0.01,0.005,0.002"
+OBSERVABLES = ["N_t", "Phi_viab", "M_mono", "S4", "Phi_obj"]
+
+
+def run_one(cmd):
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if p.returncode in (0, 3) and p.stdout.strip():
+        return json.loads(p.stdout)
+    raise RuntimeError(f"{' '.join(cmd)} failed ({p.returncode}): {p.stderr.strip()}")
+
+
+def cached(pool, path, make_cmd, reps):
+    """Replicates 0..reps-1 of one setting, stored as JSON lines in path."""
+    rows = []
+    if path.exists():
+        rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+        if len(rows) >= reps:
+            return rows[:reps]
+    futures = [pool.submit(run_one, make_cmd(r)) for r in range(len(rows), reps)]
+    rows += [f.result() for f in futures]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    return rows
+
+
+def t_quantile(n):
+    """Two-sided 95 % Student t quantile for n - 1 degrees of freedom."""
+    try:
+        from scipy import stats
+        return float(stats.t.ppf(0.975, n - 1))
+    except ImportError:  # pragma: no cover
+        return 1.96
+
+
+def mean_ci(values):
+    vals = [v for v in values if v is not None and math.isfinite(v)]
+    if not vals:
+        return float("nan"), float("nan"), 0
+    m = statistics.fmean(vals)
+    if len(vals) < 2:
+        return m, float("nan"), len(vals)
+    return m, t_quantile(len(vals)) * statistics.stdev(vals) / math.sqrt(len(vals)), len(vals)
+
+
+def energy_drift(row):
+    e = row["energy"]["translational"] + row["energy"]["rotational"]
+    return e / row["energy_budget"]["initial"] - 1.0
+
+
+def knows_joint_key(ringsim):
+    """Whether this ringsim has the key bonding.joint (older builds are
+    welded only and refuse the key)."""
+    p = subprocess.run([ringsim, "keys"], capture_output=True, text=True)
+    return any(line.startswith("bonding.joint ") for line in p.stdout.splitlines())
+
+
+def settings(a):
+    """(method, label, command maker) for every setting of the study."""
+    out = []
+    base = [] if a.scenario is None else [a.scenario]
+    sets = ["--set", f"run.t_max={a.t_max}"] + sum((["--set", s] for s in a.set), [])
+    if a.study == "gas":
+        sets += ["--set", "bonding.enabled=false"]
+    # Both methods in the same bond reading: the peer has welded bonds only.
+    joint = ["--set", "bonding.joint=welded"] if a.study == "scenario" else []
+    ringsim_joint = joint if joint and knows_joint_key(a.ringsim) else []
+    for tol in TOLERANCES:
+        out.append(("ringsim", tol, lambda r, tol=tol: [a.ringsim, "replicate", *base, "--seed", str(a.seed),
+                                                        "--replicate", str(r), "--json", *sets, *ringsim_joint,
+                                                        "--set", f"run.contact_tolerance={tol}"]))
+    peers = [("bullet-float", a.peer)] + ([("bullet-double", a.peer64)] if a.peer64 else [])
+    for method, exe in peers:
+        for dt in a.dts.split(","):
+            extra = joint
+            out.append((method, dt, lambda r, exe=exe, dt=dt, extra=extra: [
+                exe, *base, "--seed", str(a.seed), "--replicate", str(r), "--dt", dt, *sets, *extra]))
+    return out
+
+
+def tag(a):
+    name = "gas" if a.scenario is None else pathlib.Path(a.scenario).stem
+    return f"{name}__t{a.t_max}" + "".join("__" + s.replace("=", "-") for s in a.set)
+
+
+def collect(a):
+    out = pathlib.Path(a.out)
+    rows = {}
+    with cf.ThreadPoolExecutor(max_workers=a.jobs) as pool:
+        for method, label, make in settings(a):
+            path = out / "runs" / f"{tag(a)}__{method}__{label}.jsonl"
+            if a.plot_only:
+                if not path.exists():
+                    continue
+                got = [json.loads(x) for x in path.read_text().splitlines() if x.strip()][: a.R]
+            else:
+                print(f"{method} {label}: {a.R} replicates", file=sys.stderr, flush=True)
+                got = cached(pool, path, make, a.R)
+            rows[(method, label)] = got
+    return rows
+
+
+def failure_text(runs):
+    """Failure modes the peer recorded, summed over replicates (docs/PEER.md)."""
+    total = {}
+    for r in runs:
+        for k, v in r.get("peer", {}).get("failures", {}).items():
+            total[k] = total.get(k, 0) + v["count"]
+    errors = sum(r["termination"] == "error" for r in runs)
+    parts = [f"{k}:{v}" for k, v in sorted(total.items()) if v]
+    if errors:
+        parts.append(f"error_runs:{errors}")
+    return " ".join(parts)
+
+
+def gas_table(a, rows):
+    ref = rows.get(("ringsim", "1e-9"))
+    table = []
+    for (method, label), runs in rows.items():
+        if not runs:
+            continue
+        cost = statistics.median(r["wall_seconds"] for r in runs)
+        drift = statistics.median(abs(energy_drift(r)) for r in runs)
+        coll = [r["collisions"] for r in runs]
+        ratio = [r["collisions"] / q["collisions"] - 1.0 for r, q in zip(runs, ref or []) if q["collisions"]]
+        pen = statistics.median(r.get("peer", {}).get("max_penetration", 0.0) for r in runs)
+        table.append({"method": method, "setting": label, "R": len(runs), "median_wall_s": cost,
+                      "median_abs_energy_drift": drift, "mean_collisions": statistics.fmean(coll),
+                      "collision_ratio_minus_1": statistics.fmean(ratio) if ratio else float("nan"),
+                      "median_max_penetration": pen, "failures": failure_text(runs)})
+    return table
+
+
+def scenario_table(a, rows):
+    ref = rows.get(("ringsim", "1e-9"))
+    table = []
+    for (method, label), runs in rows.items():
+        if not runs:
+            continue
+        row = {"method": method, "setting": label, "R": len(runs),
+               "median_wall_s": statistics.median(r["wall_seconds"] for r in runs),
+               "failures": failure_text(runs)}
+        for ob in OBSERVABLES:
+            m, h, n = mean_ci([r[ob] for r in runs])
+            row[ob] = m
+            row[ob + "_ci"] = h
+            diffs = [r[ob] - q[ob] for r, q in zip(runs, ref or [])
+                     if r[ob] is not None and q[ob] is not None]
+            dm, dh, dn = mean_ci(diffs)
+            row[ob + "_diff"] = dm
+            row[ob + "_diff_ci"] = dh
+        table.append(row)
+    return table
+
+
+def write_csv(path, table):
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(table[0].keys()))
+        w.writeheader()
+        for row in table:
+            w.writerow({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in row.items()})
+
+
+STYLE = {"ringsim": ("C0", "o"), "bullet-float": ("C3", "s"), "bullet-double": ("C2", "^")}
+
+
+def plot_paired(path, table, keys, title):
+    """Scenario study: each observable's paired difference from ringsim at
+    its default (signed, with its 95 % CI) against cost."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, len(keys), figsize=(4.6 * len(keys), 4.0))
+    for ax, ob in zip(axes, keys):
+        for method in STYLE:
+            pts = sorted((r["median_wall_s"], r[ob + "_diff"], r[ob + "_diff_ci"], r["setting"])
+                         for r in table if r["method"] == method and math.isfinite(r[ob + "_diff"]))
+            if not pts:
+                continue
+            colour, marker = STYLE[method]
+            ax.errorbar([p[0] for p in pts], [p[1] for p in pts],
+                        yerr=[p[2] if math.isfinite(p[2]) else 0.0 for p in pts],
+                        marker=marker, color=colour, label=method, capsize=3)
+            for x, y, _, lab in pts:
+                if method == "ringsim" and lab == "1e-9":
+                    lab += " (reference)"
+                ax.annotate(lab, (x, y), fontsize=7, xytext=(3, 3), textcoords="offset points")
+        ax.axhline(0.0, color="grey", lw=0.6)
+        ax.set_xscale("log")
+        ax.set_xlabel("median wall s per replicate")
+        ax.set_ylabel(f"{ob}: paired difference from ringsim (95 % CI)")
+        ax.grid(True, which="both", lw=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def plot(path, table, panels, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 4.0))
+    for ax, (key, ylabel, floor) in zip(axes, panels):
+        for method in STYLE:
+            pts = [(r["median_wall_s"], abs(r[key]), r["setting"]) for r in table if r["method"] == method]
+            pts = [p for p in pts if math.isfinite(p[1])]
+            if not pts:
+                continue
+            pts.sort()
+            colour, marker = STYLE[method]
+            ys = [max(y, floor) for _, y, _ in pts]
+            ax.plot([x for x, _, _ in pts], ys, marker=marker, color=colour, label=method)
+            for (x, y, lab), yy in zip(pts, ys):
+                if method == "ringsim" and lab == "1e-9" and ("diff" in key or "collision" in key):
+                    lab += " (reference)"
+                ax.annotate(lab, (x, yy), fontsize=7, xytext=(3, 3), textcoords="offset points")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("median wall s per replicate")
+        ax.set_ylabel(ylabel)
+        ax.axhline(floor, color="grey", lw=0.5, ls=":")
+        ax.grid(True, which="both", lw=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("study", choices=["gas", "scenario"])
+    ap.add_argument("--scenario", default=None, help="scenario file (study 'scenario')")
+    ap.add_argument("--ringsim", required=True)
+    ap.add_argument("--peer", required=True)
+    ap.add_argument("--peer64", default=None)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("-R", type=int, default=2)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--t-max", type=float, default=None)
+    ap.add_argument("--dts", default=DTS)
+    ap.add_argument("--set", action="append", default=[], help="extra SECTION.KEY=VALUE for both methods")
+    ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--plot-only", action="store_true")
+    ap.add_argument("--chart", default=None,
+                    help="write the chart to CHART.csv and CHART.png (default OUT/<study tag>)")
+    a = ap.parse_args()
+    if a.study == "scenario" and a.scenario is None:
+        sys.exit("peer_chart: the scenario study needs --scenario FILE")
+    if a.study == "gas" and a.scenario is not None:
+        sys.exit("peer_chart: the gas study uses the built-in scene (no --scenario)")
+    if a.t_max is None:
+        a.t_max = 500 if a.study == "gas" else 5000
+    a.t_max = f"{a.t_max:g}"
+    rows = collect(a)
+    out = pathlib.Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    name = tag(a)
+    if a.study == "gas":
+        table = gas_table(a, rows)
+        panels = [("median_abs_energy_drift", "|energy drift| (floor 1e-16)", 1e-16),
+                  ("collision_ratio_minus_1", "|collisions / ringsim's - 1| (floor 1e-4)", 1e-4),
+                  ("median_max_penetration", "largest penetration (ringsim: none; floor 1e-6)", 1e-6)]
+        title = f"Hard-body gas, 300 S + 300 L, T = {a.t_max}, R = {a.R} (median)"
+    else:
+        table = scenario_table(a, rows)
+        title = f"{name}, R = {a.R}: the peer (welded bonds) against ringsim, same seeds"
+    base = pathlib.Path(a.chart) if a.chart else out / name
+    write_csv(base.with_suffix(".csv"), table)
+    if a.study == "gas":
+        plot(base.with_suffix(".png"), table, panels, title)
+    else:
+        plot_paired(base.with_suffix(".png"), table, ["N_t", "M_mono", "Phi_viab"], title)
+    print(f"wrote {base.with_suffix('.csv')} and {base.with_suffix('.png')}")
+
+
+if __name__ == "__main__":
+    main()
