@@ -325,6 +325,8 @@ void Simulation::start_group(int g, CompliantCluster model, double t) {
   CompliantGroup& G = cgroups_[g];
   retire_integrator(G);
   if (G.articulated) {
+    // Surplus held rows (a ring closed under the filters) go first.
+    stats_.dropped_rows += drop_redundant_held_rows(model.bodies, G.joints);
     // The new joints' impulse: perfectly inelastic in the held directions
     // only (core/joint_projection.hpp), momentum and angular momentum kept.
     stats_.lost_joint_impulses -= project_velocities(model.bodies, G.joints).energy_change;

@@ -120,4 +120,32 @@ int internal_dof(const std::vector<CompliantBody>& bodies, const JointSet& joint
   return m.layout.size - solve.rank() - 6;
 }
 
+int drop_redundant_held_rows(const std::vector<CompliantBody>& bodies, JointSet& joints) {
+  if (joints.angles.empty() && joints.dihedrals.empty()) return 0;
+  const MassMatrix m(bodies);
+  auto rank_of = [&](const JointSet& j) {
+    JointRows rows;
+    joint_rows(bodies, m.layout, j, rows);
+    return MultiplierSolve(rows.g, m, true).rank();
+  };
+  JointSet kept;
+  kept.balls = joints.balls;
+  int rank = rank_of(kept);
+  int dropped = 0;
+  for (const HeldAngle& a : joints.angles) {
+    kept.angles.push_back(a);
+    const int r = rank_of(kept);
+    if (r > rank) rank = r;
+    else kept.angles.pop_back(), ++dropped;
+  }
+  for (const HeldDihedral& d : joints.dihedrals) {
+    kept.dihedrals.push_back(d);
+    const int r = rank_of(kept);
+    if (r > rank) rank = r;
+    else kept.dihedrals.pop_back(), ++dropped;
+  }
+  joints = std::move(kept);
+  return dropped;
+}
+
 }  // namespace ringsim

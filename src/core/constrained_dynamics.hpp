@@ -99,4 +99,16 @@ void cluster_loads(const CompliantCluster& cluster, const JointSet& joints, std:
 // rigidly (carry it as one rigid body). A single sphere gives -3 (no rotation).
 int internal_dof(const std::vector<CompliantBody>& bodies, const JointSet& joints);
 
+// Removes the held angles and dihedrals whose rows add nothing to the rank
+// of the joints' Jacobian at the present pose (ball joints first, then the
+// held rows in order, each kept only when it raises the rank). A ring closed
+// under the filters holds more angles and dihedrals than its axes have
+// relative freedoms (docs/ARTICULATED.md, "Multipliers, rank, degrees of
+// freedom"); the surplus rows are implied by the others to first order, and
+// kept they leave the position projection a residual in G's left null space
+// that no Gauss-Newton step removes and that the integration's drift grows
+// (seen: a closed Scenario 3 square whose joint drifted 1e-4 apart by
+// t = 128). Returns the number removed.
+int drop_redundant_held_rows(const std::vector<CompliantBody>& bodies, JointSet& joints);
+
 }  // namespace ringsim

@@ -82,6 +82,7 @@ struct RunStats {
   // correction (M-norm of the position change).
   std::int64_t joint_rigid = 0, joint_articulated = 0;
   std::int64_t projections = 0;
+  std::int64_t dropped_rows = 0;  // held angles and dihedrals implied by the others (drop_redundant_held_rows)
   double joint_residual = 0.0;
   double joint_residual_after = 0.0;  // largest |C| a projection left (above bonding.joint_tolerance: singular poses)
   double projection_size = 0.0;
