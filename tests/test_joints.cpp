@@ -236,6 +236,25 @@ TEST(ConstrainedDynamics, InternalDegreesOfFreedom) {
     std::printf("held square: S's singular values, largest %.3g, 29th %.3g, 30th %.3g\n", sv[0], sv[28], sv[29]);
     EXPECT_GT(sv[28], 1e-6 * sv[0]);  // small: the anchors are only ~0.15 off the axes
     EXPECT_LT(sv[29], 1e-14 * sv[0]);
+    // The 3 surplus held rows go; the 29 left are independent and leave the
+    // same single freedom.
+    JointSet kept = held_square.joints;
+    EXPECT_EQ(drop_redundant_held_rows(held_square.cluster.bodies, kept), 3);
+    EXPECT_EQ(kept.rows(), 29);
+    EXPECT_EQ(kept.balls.size(), held_square.joints.balls.size());
+    JointRows kept_rows;
+    joint_rows(held_square.cluster.bodies, m.layout, kept, kept_rows);
+    EXPECT_EQ(MultiplierSolve(kept_rows.g, m, true).rank(), 29);
+    EXPECT_EQ(internal_dof(held_square.cluster.bodies, kept), 1);
+  }
+  {
+    // An open chain of four corners with both filters: its held rows are all
+    // independent, nothing goes.
+    test::Articulated open = test::open_chain(4, 0.15, true, true);
+    ASSERT_GT(open.joints.angles.size() + open.joints.dihedrals.size(), 0u);
+    JointSet kept = open.joints;
+    EXPECT_EQ(drop_redundant_held_rows(open.cluster.bodies, kept), 0);
+    EXPECT_EQ(kept.rows(), open.joints.rows());
   }
   // Anchors exactly on the axes (captures at the faces' centres, measure
   // zero): each linker's spin about its own axis moves nothing any row sees,
