@@ -89,6 +89,27 @@ nlohmann::json profile_json(const EventProfile& p) {
 
 }  // namespace
 
+void add_observables_json(nlohmann::json& j, const Observables& o) {
+  j["N_t"] = o.N_t;
+  j["N_tar"] = o.N_tar;
+  j["N_viab"] = o.N_viab;
+  j["N_nv1"] = o.n_nv1;
+  j["N_nv2"] = o.n_nv2;
+  j["N_nv3"] = o.n_nv3;
+  j["N_cyc"] = o.N_cyc;
+  nlohmann::json rings = nlohmann::json::object();
+  for (const auto& [m, count] : o.rings) rings[std::to_string(m)] = count;
+  j["rings"] = rings;
+  j["Phi_obj"] = o.Phi_obj;
+  j["Phi_viab"] = o.Phi_viab;
+  j["S4"] = o.S4 ? nlohmann::json(*o.S4) : nlohmann::json(nullptr);
+  j["M_mono"] = o.M_mono;
+  j["M_mono_S"] = o.M_mono_S;
+  j["M_mono_L"] = o.M_mono_L;
+  j["tau_tar"] = o.tau_tar;
+  j["tau_tar_censored"] = o.tau_tar_censored;
+}
+
 nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::uint64_t replicate,
                              const ReplicateIo& io) {
   const auto start = std::chrono::steady_clock::now();
@@ -178,24 +199,7 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
   j["bonds"] = s.bonds;
   j["closure_bonds"] = s.closure_bonds;
   j["rejected"] = {{"valency", s.rejected_valency}, {"angle", s.rejected_angle}, {"coplanarity", s.rejected_coplanarity}};
-  j["N_t"] = o.N_t;
-  j["N_tar"] = o.N_tar;
-  j["N_viab"] = o.N_viab;
-  j["N_nv1"] = o.n_nv1;
-  j["N_nv2"] = o.n_nv2;
-  j["N_nv3"] = o.n_nv3;
-  j["N_cyc"] = o.N_cyc;
-  nlohmann::json rings = nlohmann::json::object();
-  for (const auto& [m, count] : o.rings) rings[std::to_string(m)] = count;
-  j["rings"] = rings;
-  j["Phi_obj"] = o.Phi_obj;
-  j["Phi_viab"] = o.Phi_viab;
-  j["S4"] = o.S4 ? nlohmann::json(*o.S4) : nlohmann::json(nullptr);
-  j["M_mono"] = o.M_mono;
-  j["M_mono_S"] = o.M_mono_S;
-  j["M_mono_L"] = o.M_mono_L;
-  j["tau_tar"] = o.tau_tar;
-  j["tau_tar_censored"] = o.tau_tar_censored;
+  add_observables_json(j, o);
   if (term == Termination::SteadyState) {
     const MserResult& m = sim.monitor().result();
     j["mser"] = {{"truncation", m.truncation}, {"batches", m.batches}, {"samples", sim.monitor().samples().size()}};

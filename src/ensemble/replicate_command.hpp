@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/replicate_record.hpp"
+#include "core/bond_graph.hpp"
 #include "core/params.hpp"
 
 namespace CLI {
@@ -50,6 +51,11 @@ struct ReplicateIo {
 // `run.sample_interval` apart from t = 0.
 nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::uint64_t replicate,
                              const ReplicateIo& io = {});
+
+// The study's observables (MODEL.md, "Observables") as run_replicate's
+// result fields: N_t ... tau_tar_censored, rings by size. Also the
+// time-stepped peer's output (bench/peer), so both carry the same fields.
+void add_observables_json(nlohmann::json& j, const Observables& o);
 
 // The result object of run_replicate as one row of the ensemble's table.
 // Status Ok for the study's normal ends (steady_state, t_max,
