@@ -24,6 +24,7 @@
 #include "core/prediction.hpp"
 #include "core/scene.hpp"
 #include "core/vec.hpp"
+#include "ensemble/replicate_command.hpp"
 #include "ringsim/version.hpp"
 
 namespace ringsim::peer {
@@ -674,24 +675,7 @@ nlohmann::json Peer::run() {
   j["bonds"] = bonds_;
   j["closure_bonds"] = closure_bonds_;
   j["rejected"] = {{"valency", rejected_valency_}, {"angle", rejected_angle_}, {"coplanarity", rejected_coplanarity_}};
-  j["N_t"] = o.N_t;
-  j["N_tar"] = o.N_tar;
-  j["N_viab"] = o.N_viab;
-  j["N_nv1"] = o.n_nv1;
-  j["N_nv2"] = o.n_nv2;
-  j["N_nv3"] = o.n_nv3;
-  j["N_cyc"] = o.N_cyc;
-  nlohmann::json rings = nlohmann::json::object();
-  for (const auto& [m, c] : o.rings) rings[std::to_string(m)] = c;
-  j["rings"] = rings;
-  j["Phi_obj"] = o.Phi_obj;
-  j["Phi_viab"] = o.Phi_viab;
-  j["S4"] = o.S4 ? nlohmann::json(*o.S4) : nlohmann::json(nullptr);
-  j["M_mono"] = o.M_mono;
-  j["M_mono_S"] = o.M_mono_S;
-  j["M_mono_L"] = o.M_mono_L;
-  j["tau_tar"] = o.tau_tar;
-  j["tau_tar_censored"] = o.tau_tar_censored;
+  add_observables_json(j, o);  // the same fields as ringsim replicate --json
   if (termination == "steady_state") {
     const MserResult& m = monitor_.result();
     j["mser"] = {{"truncation", m.truncation}, {"batches", m.batches}, {"samples", monitor_.samples().size()}};
