@@ -6,11 +6,6 @@
 namespace ringsim {
 
 namespace {
-Mat3 cross_matrix(const Vec3& r) {
-  Mat3 m;
-  m << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;
-  return m;
-}
 Vec3 point_velocity(const ContactSide& s) { return s.v + s.omega.cross(s.arm); }
 }  // namespace
 

@@ -8,12 +8,6 @@
 namespace ringsim {
 namespace {
 
-Mat3 skew(const Vec3& r) {
-  Mat3 s;
-  s << 0.0, -r.z(), r.y(), r.z(), 0.0, -r.x(), -r.y(), r.x(), 0.0;
-  return s;
-}
-
 Vec3 outward(const CompliantBody& linker, int end) { return outward_axis(linker.axis(), end); }
 
 // Dihedral about unit u between unit n0, n1 (dihedral_deg's convention, in
@@ -180,7 +174,7 @@ void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& 
     const Vec3 r = l.q * j.anchor;
     out.g.block<3, 3>(row, layout.offset[j.sphere]) += Mat3::Identity();
     out.g.block<3, 3>(row, layout.offset[j.linker]) -= Mat3::Identity();
-    out.g.block<3, 3>(row, layout.offset[j.linker] + 3) += skew(r);
+    out.g.block<3, 3>(row, layout.offset[j.linker] + 3) += cross_matrix(r);
     out.bias.segment<3>(row) = -l.omega.cross(l.omega.cross(r));
     row += 3;
   }

@@ -10,6 +10,13 @@ using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 using Quat = Eigen::Quaterniond;
 
+// The cross-product matrix: cross_matrix(r) v = r x v.
+inline Mat3 cross_matrix(const Vec3& r) {
+  Mat3 m;
+  m << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;
+  return m;
+}
+
 // Scalar forms of u.v and |u x v| for the hot support functions, the same
 // bits as Eigen's u.dot(v) and u.cross(v).norm() (the same operations in the
 // same order: (x + y) + z, no fused multiply-adds in this build), but written
