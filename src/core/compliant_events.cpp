@@ -213,7 +213,7 @@ void Simulation::process_slice(int i, const Event& ev, double t) {
     if (internal_kinetic_energy(G.integ->state()) <= cp.relax_energy) {
       if (std::isnan(G.quiet_since)) G.quiet_since = t;
       if (t - G.quiet_since >= cp.relax_time) {
-        relax_group(g, t);
+        relax_group(g, G.integ->state(), t, Freeze::Relaxed);
         for (int m : G.members) ++bodies_.counter[m];
         for (int m : G.members) predict(m, t);
         return;
@@ -227,9 +227,8 @@ void Simulation::process_slice(int i, const Event& ev, double t) {
   for (int m : G.members) predict(m, t);
 }
 
-void Simulation::relax_group(int g, double t, Freeze why) {
+void Simulation::relax_group(int g, const CompliantCluster& st, double t, Freeze why) {
   CompliantGroup& G = cgroups_[g];
-  const CompliantCluster& st = G.integ->state();
   G.frozen_potential = potential_energy(st);
   const double before = kinetic_energy(st);
   for (std::size_t k = 0; k < G.members.size(); ++k) {
@@ -274,10 +273,7 @@ void Simulation::relax_group(int g, double t, Freeze why) {
   dormant_[cluster] = g;
   G.pending = false;
   G.quiet_since = std::numeric_limits<double>::quiet_NaN();
-  // A quiet cluster wakes at any contact; a rigid articulated one only when
-  // it bonds (a contact moves it as the rigid body it is).
-  G.hold_until = why == Freeze::Rigid ? std::numeric_limits<double>::infinity()
-                                      : -std::numeric_limits<double>::infinity();
+  G.hold_until = -std::numeric_limits<double>::infinity();  // a quiet cluster wakes at any contact
 }
 
 void Simulation::wake_cluster(int cluster, double t) {
@@ -312,7 +308,6 @@ void Simulation::wake_cluster(int cluster, double t) {
   G.ta = t;
   G.pending = true;
   G.rigid = false;  // until its next bond says again
-  G.hold_until = -std::numeric_limits<double>::infinity();
   ++stats_.woken;
 }
 
@@ -333,15 +328,19 @@ void Simulation::start_group(int g, CompliantCluster model, double t) {
   }
   G.model = model;
   if (cluster_observer_) cluster_observer_(model, t);
+  if (G.articulated) {
+    // Model no more than the scene needs: joints that leave no internal
+    // freedom make one rigid body (exact free rotation), until the next bond.
+    G.rigid = internal_dof(model.bodies, G.joints) <= 0;
+    ++(G.rigid ? stats_.joint_rigid : stats_.joint_articulated);
+    if (G.rigid) {
+      relax_group(g, G.model, t, Freeze::Rigid);
+      return;
+    }
+  }
   G.integ = std::make_unique<ClusterIntegrator>(integrated_model(G, model), t, integrator_options(), G.joints);
   G.ta = t;
   G.pending = true;
-  if (!G.articulated) return;
-  // Model no more than the scene needs: joints that leave no internal
-  // freedom make one rigid body (exact free rotation), until the next bond.
-  G.rigid = internal_dof(model.bodies, G.joints) <= 0;
-  ++(G.rigid ? stats_.joint_rigid : stats_.joint_articulated);
-  if (G.rigid) relax_group(g, t, Freeze::Rigid);
 }
 
 void Simulation::form_compliant_bond(int s, int l, int end, double t) {

@@ -164,6 +164,12 @@ struct SimParams {
   RunParams run;
 };
 
+// Rigid bonds read as articulated joints: bonding on, no compliant springs,
+// bonding.joint = articulated (docs/ARTICULATED.md).
+inline bool articulated_bonds(const SimParams& p) {
+  return p.bonding.enabled && !p.compliant.enabled() && p.bonding.joint == BondJoint::Articulated;
+}
+
 const char* to_string(Boundary b);
 const char* to_string(CombineRule r);
 const char* to_string(VelocityInit v);

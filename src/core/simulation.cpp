@@ -110,8 +110,7 @@ Simulation::Simulation(const SimParams& params, BodyStore bodies)
   bodies_.counter.assign(n, 0);
   bodies_.last_collision.assign(n, -kNever);
   bodies_.free_all();
-  articulated_ = params_.bonding.enabled && !params_.compliant.enabled() &&
-                 params_.bonding.joint == BondJoint::Articulated;
+  articulated_ = articulated_bonds(params_);
   compliant_ = (params_.bonding.enabled && params_.compliant.enabled()) || articulated_;
   cindex_.assign(n, -1);
   memo_.assign(n, {});
@@ -574,19 +573,18 @@ void Simulation::predict_group(int i, double t) {
 }
 
 void Simulation::apply_impulse(int i, const Vec3& J, const Vec3& arm) {
-  if (const int cg = bodies_.cgroup[i]; cg >= 0 && cgroups_[cg].articulated) {
-    // With the joint impulses it calls up (core/joint_impulses.hpp): the
-    // velocities end on the joints' null space, G nu = 0.
-    // cut_group projected the velocities (G nu = 0), so this is
-    // nu + W C^T J and changes the energy by what the contact law counted.
-    CompliantGroup& G = cgroups_[cg];
-    apply_point_impulse(G.integ->mutable_state().bodies, G.joints, cindex_[i], arm, J);
-    return;
-  }
   if (const int cg = bodies_.cgroup[i]; cg >= 0) {
+    CompliantGroup& G = cgroups_[cg];
+    if (G.articulated) {
+      // With the joint impulses it calls up (core/joint_impulses.hpp).
+      // cut_group projected the velocities (G nu = 0), so this is
+      // nu + W C^T J and changes the energy by what the contact law counted.
+      apply_point_impulse(G.integ->mutable_state().bodies, G.joints, cindex_[i], arm, J);
+      return;
+    }
     // The member alone takes the jump (its own mass and inertia); touch() put
     // the cluster's state at the event time into the integrator.
-    CompliantBody& cb = cgroups_[cg].integ->mutable_state().bodies[cindex_[i]];
+    CompliantBody& cb = G.integ->mutable_state().bodies[cindex_[i]];
     // (A smooth sphere's arm is parallel to J up to the contact frame's
     // polish, a linker feature's normal at a tie: its spin then changes a
     // little, as for a free sphere, and the energy ledger stays exact.)
@@ -659,7 +657,7 @@ void Simulation::touch(int b, double t, bool impulse) {
       // moves, as one rigid body (core/compliant_events.cpp).
       G.burst_count = 0;
       ++stats_.bursts;
-      relax_group(cg, t, Freeze::Burst);
+      relax_group(cg, G.integ->state(), t, Freeze::Burst);
       G.hold_until = t + params_.compliant.burst_time;
     }
     return;
@@ -669,12 +667,14 @@ void Simulation::touch(int b, double t, bool impulse) {
     advance(bodies_.kin[b], t, bodies_.shape[b]);
   } else if (compliant_ && g < static_cast<int>(dormant_.size()) && dormant_[g] >= 0) {
     CompliantGroup& G = cgroups_[dormant_[g]];
-    if (t >= G.hold_until || !impulse) {
+    // A rigid articulated cluster (no internal freedom) wakes only to bond:
+    // a contact moves it as the rigid body it is.
+    if (!impulse || (!G.rigid && t >= G.hold_until)) {
       wake_cluster(g, t);  // a relaxed compliant cluster returns to the integrator
-    } else {
+    } else if (!G.rigid) {
       // Held rigid after a contact burst while the contacts go on.
       rebase_cluster(bodies_.clusters[g], box_, t);
-      if (!G.rigid) G.hold_until = t + params_.compliant.burst_time;
+      G.hold_until = t + params_.compliant.burst_time;
     }
   }
   // A rigid cluster's pose, velocities and inertia at t are pure functions of

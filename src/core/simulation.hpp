@@ -334,7 +334,8 @@ class Simulation {
   // Why a group becomes a rigid body: it relaxed, a contact burst ended, or
   // (articulated) its joints leave it no internal freedom.
   enum class Freeze { Relaxed, Burst, Rigid };
-  void relax_group(int g, double t, Freeze why = Freeze::Relaxed);
+  // st: the group's state at t (its integrator's, or a new group's model).
+  void relax_group(int g, const CompliantCluster& st, double t, Freeze why);
   void wake_cluster(int cluster, double t);
   void form_compliant_bond(int s, int l, int end, double t);
   // Adds the bond's terms to the group's model (compliant springs, or

@@ -798,7 +798,7 @@ void check_cross(const SimParams& p, const Origins& origins, Problems& problems)
   // turns a smooth sphere, core/compliant.hpp): frictional sphere contacts,
   // which would change it, are refused rather than run with a wrong torque.
   // Articulated clusters likewise: a sphere is a point mass on its joints.
-  const bool integrated = p.bonding.enabled && (p.compliant.enabled() || p.bonding.joint == BondJoint::Articulated);
+  const bool integrated = (p.bonding.enabled && p.compliant.enabled()) || articulated_bonds(p);
   if (integrated && (p.contact.static_friction_sphere > 0.0 || p.contact.dynamic_friction_sphere > 0.0)) {
     const char* key = p.contact.static_friction_sphere > 0.0 ? "contact.static_friction_sphere"
                                                               : "contact.dynamic_friction_sphere";

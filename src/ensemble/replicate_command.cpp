@@ -164,16 +164,21 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
                       {"sundials_steps", s.sundials_steps}, {"sundials_rhs", s.sundials_rhs},
                       {"sundials_seconds", s.sundials_seconds}};
   }
-  const bool articulated = params.bonding.enabled && !params.compliant.enabled() &&
-                           params.bonding.joint == BondJoint::Articulated;
+  const bool articulated = articulated_bonds(params);
   if (articulated) {
-    j["articulated"] = {{"rigid_formations", s.joint_rigid},     {"articulated_formations", s.joint_articulated},
-                        {"slices", s.slices},                    {"slice_cuts", s.slice_cuts},
-                        {"projections", s.projections},          {"dropped_held_rows", s.dropped_rows},          {"max_joint_residual", s.joint_residual},
+    j["articulated"] = {{"rigid_formations", s.joint_rigid},
+                        {"articulated_formations", s.joint_articulated},
+                        {"slices", s.slices},
+                        {"slice_cuts", s.slice_cuts},
+                        {"projections", s.projections},
+                        {"dropped_held_rows", s.dropped_rows},
+                        {"max_joint_residual", s.joint_residual},
                         {"max_residual_after_projection", s.joint_residual_after},
                         {"max_cut_residual", s.cut_residual},
-                        {"max_projection", s.projection_size},   {"sundials_steps", s.sundials_steps},
-                        {"sundials_rhs", s.sundials_rhs},        {"sundials_seconds", s.sundials_seconds}};
+                        {"max_projection", s.projection_size},
+                        {"sundials_steps", s.sundials_steps},
+                        {"sundials_rhs", s.sundials_rhs},
+                        {"sundials_seconds", s.sundials_seconds}};
   }
   j["t_end"] = sim.time();
   j["termination"] = to_string(term);
