@@ -373,7 +373,7 @@ TEST(ArticulatedIntegrator, MethodComparison) {
     }
   }
   // In the event loop the state is projected (and the method restarted) at
-  // every slice end, compliant.slice = 0.05 by default: a multistep method
+  // every slice end (bonding.joint_slice, 0.2 by default; 0.05 here): a multistep method
   // restarts at order 1 each time, a one-step method loses nothing.
   for (const Method m : {Method::ExplicitRk, Method::Adams, Method::Bdf}) {
     const FlightFigures f = fly(a, m, 100.0, 0.05, 1e-9, 1e-11, 1e-10);

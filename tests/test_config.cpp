@@ -816,7 +816,7 @@ TEST(Config, ScenarioRoundTripWithEscapedStrings) {
 
 TEST(Config, KeyInfoTable) {
   const auto& keys = config_keys();
-  ASSERT_EQ(keys.size(), 66u);
+  ASSERT_EQ(keys.size(), 67u);
   for (const KeyInfo& k : keys) {
     EXPECT_FALSE(k.type.empty()) << k.name;
     EXPECT_FALSE(k.default_value.empty()) << k.name;

@@ -109,7 +109,7 @@ TEST(EnergyBudget, ArticulatedJointsLoseOnlyInBondImpulses) {
   // and the tracks', which a shorter slice shrinks.
   auto run = [](double rtol, double slice) {
     SimParams p;
-    p.compliant.slice = slice;
+    p.bonding.joint_slice = slice;
     p.bonding.angle_filter = p.bonding.coplanarity_filter = false;
     p.bonding.joint = BondJoint::Articulated;
     p.compliant.rtol = rtol;
@@ -128,14 +128,16 @@ TEST(EnergyBudget, ArticulatedJointsLoseOnlyInBondImpulses) {
                 rtol, slice, e.initial, e.kinetic, e.joint_impulses, e.projections, e.dampers, (long)s.bonds);
     return e;
   };
-  const EnergyBudget loose = run(1e-6, 0.05), tight = run(1e-9, 0.05), fine = run(1e-9, 0.0125);
-  // Measured: rest 8.7e-3 of 5355 at rtol 1e-6 and at 1e-9 (the tolerance is
-  // not what limits it), 7.4e-4 at slice 0.0125: the tracks' error at cuts
-  // (a cut reads the state from the cubic Hermite track, O(slice^4) off the
-  // integrated motion in position, as for compliant clusters below).
+  const EnergyBudget loose = run(1e-6, 0.2), tight = run(1e-9, 0.2), fine = run(1e-9, 0.05), finer = run(1e-9, 0.0125);
+  // Measured: rest 1.5e-3 of 5355 at rtol 1e-6 and 1.0e-3 at 1e-9 (the
+  // tolerance is not what limits it), 3.4e-5 at slice 0.05 and 2.2e-7 at
+  // 0.0125: the tracks' error at cuts (a cut reads the state from the
+  // quintic Hermite track, O(slice^6) off the integrated motion in position,
+  // as for compliant clusters below; the cubic tracks left 8.7e-3 at 0.05).
   EXPECT_LT(std::abs(loose.dampers), 1e-5 * loose.initial);
   EXPECT_LT(std::abs(tight.dampers), 1e-5 * tight.initial);
   EXPECT_LT(std::abs(fine.dampers), 0.3 * std::abs(tight.dampers));
+  EXPECT_LT(std::abs(finer.dampers), 0.3 * std::abs(fine.dampers));
 }
 
 TEST(EnergyBudget, CompliantRestIsTheDampersShare) {

@@ -116,14 +116,16 @@ struct Track {
   double ta = 0.0, tb = 0.0;
   Vec3 xa = Vec3::Zero(), va = Vec3::Zero(), xb = Vec3::Zero(), vb = Vec3::Zero(), vbar = Vec3::Zero();
   Vec3 ua = Vec3::UnitZ(), wa = Vec3::Zero(), ub = Vec3::UnitZ(), wb = Vec3::Zero(), ubar = Vec3::Zero();
-  double spin_a = 0.0, spin_b = 0.0;  // angular velocity along the axis at ta, tb
+  // Quintic terms (core/track.hpp: alpha, beta) of the centre and the axis;
+  // zero: the cubic.
+  Vec3 xc0 = Vec3::Zero(), xc1 = Vec3::Zero(), uc0 = Vec3::Zero(), uc1 = Vec3::Zero();
   // A linker's full orientation at ta, and its roll at tb about ub relative
-  // to qa carried along the shortest turn from ua to ub (radians): the roll
-  // moves nothing in the event loop (a cylinder of revolution) but an
-  // articulated cluster's off-axis joint anchors turn with it
-  // (track_orientation, core/track.hpp).
+  // to qa carried along the shortest turn from ua to ub (radians), with the
+  // roll's rates at ta and tb: the roll moves nothing in the event loop (a
+  // cylinder of revolution) but an articulated cluster's off-axis joint
+  // anchors turn with it (track_orientation, core/track.hpp).
   Quat qa = Quat::Identity();
-  double roll_b = 0.0;
+  double roll_b = 0.0, roll_rate_a = 0.0, roll_rate_b = 0.0;
   Vec3 sphere_omega = Vec3::Zero();   // a sphere's constant angular velocity (smooth: never changes)
   double dev = 0.0, center_speed = 0.0, axis_rate = 0.0;
   // Second-order bounds: |x''(t)| <= center_accel; the axis' turning,

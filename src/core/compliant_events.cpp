@@ -131,7 +131,8 @@ bool Simulation::begin_slice(int g, double t) {
   const CompliantParams& cp = params_.compliant;
   const JointSet& joints = G.joints;  // empty for compliant groups
   const SliceEnd start = follows ? std::move(G.end) : slice_end(G.integ->state(), joints);
-  double D = std::min(cp.slice, G.track_slice);
+  const double longest = G.articulated ? params_.bonding.joint_slice : cp.slice;
+  double D = std::min(longest, G.track_slice);
   bool track_halved = false;
   double error = 0.0;
   for (int attempt = 0;; ++attempt) {
@@ -170,11 +171,12 @@ bool Simulation::begin_slice(int g, double t) {
     // (core/compliant_group.cpp). So is one whose tracks stray from the
     // integrated motion by more than compliant.track_tolerance (stiff bonds:
     // a slice longer than a bond period).
-    const double len = set_tracks(bodies_, G, start.bodies, t, G.integ->state().bodies, t + D);
+    // The end's accelerations make the tracks quintic (core/track.hpp).
+    G.end = slice_end(G.integ->state(), joints);
+    G.end_cached = true;
+    const double len = set_tracks(bodies_, G, start, t, G.end, t + D);
     bool good = len >= 0.5;
     if (good && cp.track_tolerance > 0.0) {
-      G.end = slice_end(G.integ->state(), joints);
-      G.end_cached = true;
       error = track_error_estimate(start, G.end, D);
       good = error <= cp.track_tolerance;
       track_halved = track_halved || !good;
@@ -186,10 +188,10 @@ bool Simulation::begin_slice(int g, double t) {
     D *= 0.5;
   }
   // The next slice starts from the length the tolerance allowed, and doubles
-  // back towards compliant.slice while the estimate (~ D^4) leaves room.
+  // back towards the longest slice while the estimate (~ D^4) leaves room.
   if (track_halved) G.track_slice = D;
   else if (D == G.track_slice && error <= cp.track_tolerance / 32.0)
-    G.track_slice = 2.0 * D < cp.slice ? 2.0 * D : std::numeric_limits<double>::infinity();
+    G.track_slice = 2.0 * D < longest ? 2.0 * D : std::numeric_limits<double>::infinity();
   G.ta = t;
   G.tb = t + D;
   ++stats_.slices;
@@ -304,7 +306,8 @@ void Simulation::wake_cluster(int cluster, double t) {
   G.shift = Vec3::Zero();
   G.integ = std::make_unique<ClusterIntegrator>(integrated_model(G, st), t, integrator_options(), G.joints);
   // Zero-length tracks: exact poses and velocities at t until the slice begins.
-  set_tracks(bodies_, G, st.bodies, t, st.bodies, t);
+  const SliceEnd now{st.bodies, {}, {}};
+  set_tracks(bodies_, G, now, t, now, t);
   G.ta = t;
   G.pending = true;
   G.rigid = false;  // until its next bond says again
@@ -430,7 +433,8 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
   // Exact at t until the slice begins. Before the closure scan: from here on
   // body_center/body_axis read the members' tracks (cgroup >= 0), and a body
   // that was free has none yet (a default track, at the origin).
-  set_tracks(bodies_, G, nc.bodies, t, nc.bodies, t);
+  const SliceEnd now{nc.bodies, {}, {}};
+  set_tracks(bodies_, G, now, t, now, t);
   // Pairs the merge put inside one cluster that are already in the capture
   // shell are checked now (MODEL.md, "Capture and bond formation"); the
   // others can still close later, when their gap falls through r_c.

@@ -8,12 +8,13 @@
 
 namespace ringsim {
 
-double set_tracks(BodyStore& b, const CompliantGroup& g, const std::vector<CompliantBody>& sa, double ta,
-                  const std::vector<CompliantBody>& sb, double tb) {
+double set_tracks(BodyStore& b, const CompliantGroup& g, const SliceEnd& ea, double ta, const SliceEnd& eb,
+                  double tb) {
   const double D = tb - ta;
+  const bool quintic = D > 0.0 && !ea.center_accel.empty() && !eb.center_accel.empty();
   double min_len = 1.0;
   for (std::size_t k = 0; k < g.members.size(); ++k) {
-    const CompliantBody &a = sa[k], &e = sb[k];
+    const CompliantBody &a = ea.bodies[k], &e = eb.bodies[k];
     Track& tr = b.track[g.members[k]];
     tr.ta = ta;
     tr.tb = tb;
@@ -22,14 +23,27 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const std::vector<Compl
     tr.xb = e.x + g.shift;
     tr.vb = e.v;
     tr.vbar = D > 0.0 ? Vec3((tr.xb - tr.xa) / D) : tr.va;
-    // core/track.hpp: |x - chord| <= D/4 max(|A|, |B|), |x' - vbar| <= |A| + |B|.
-    const double A = (tr.va - tr.vbar).norm(), B = (tr.vb - tr.vbar).norm();
+    // core/track.hpp: the cubic c has |c - chord| <= D/4 max(|A|, |B|) and
+    // |c' - vbar| <= |A| + |B|; c''(t) = [(6 s - 4) A + (6 s - 2) B] / D
+    // (vectors A, B), linear in s: largest at an end. The quintic term
+    // w = p(s) [(1 - s) alpha + s beta] adds at most m / 16 to the first,
+    // (m / (3 sqrt 3) + |beta - alpha| / 16) / D to the second and
+    // (2 m + 2 |beta - alpha| / (3 sqrt 3)) / D^2 to the third,
+    // m = max(|alpha|, |beta|).
+    const Vec3 Av = tr.va - tr.vbar, Bv = tr.vb - tr.vbar;
+    const double A = Av.norm(), B = Bv.norm();
     tr.dev = 0.25 * D * std::max(A, B);
     tr.center_speed = A + B;
-    // x''(t) = [(6 s - 4) A + (6 s - 2) B] / D (vectors A, B), linear in s:
-    // largest at an end.
-    const Vec3 Av = tr.va - tr.vbar, Bv = tr.vb - tr.vbar;
     tr.center_accel = D > 0.0 ? std::max((4.0 * Av + 2.0 * Bv).norm(), (2.0 * Av + 4.0 * Bv).norm()) / D : 0.0;
+    tr.xc0 = tr.xc1 = Vec3::Zero();
+    if (quintic) {
+      tr.xc0 = 0.5 * D * (D * ea.center_accel[k] + 4.0 * Av + 2.0 * Bv);
+      tr.xc1 = 0.5 * D * (D * eb.center_accel[k] - 2.0 * Av - 4.0 * Bv);
+      const double m = std::max(tr.xc0.norm(), tr.xc1.norm()), d = (tr.xc1 - tr.xc0).norm();
+      tr.dev += m / 16.0;
+      tr.center_speed += (kQuinticSlopeMax * m + d / 16.0) / D;
+      tr.center_accel += (2.0 * m + 2.0 * kQuinticSlopeMax * d) / (D * D);
+    }
     if (a.shape == Shape::Sphere) {
       tr.sphere_omega = a.omega;
       tr.axis_rate = 0.0;
@@ -39,30 +53,48 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const std::vector<Compl
     tr.ub = e.axis();
     tr.wa = a.omega.cross(tr.ua);
     tr.wb = e.omega.cross(tr.ub);
-    tr.spin_a = a.omega.dot(tr.ua);
-    tr.spin_b = e.omega.dot(tr.ub);
     tr.qa = a.q;
-    {
-      // The rotation left between qb and the shortest turn of qa: about ub.
-      const Quat rest = e.q * (Quat::FromTwoVectors(tr.ua, tr.ub) * a.q).conjugate();
-      tr.roll_b = 2.0 * std::atan2(rest.vec().dot(tr.ub), rest.w());
-    }
     tr.ubar = D > 0.0 ? Vec3((tr.ub - tr.ua) / D) : tr.wa;
+    const Vec3 WAv = tr.wa - tr.ubar, WBv = tr.wb - tr.ubar;
+    tr.uc0 = tr.uc1 = Vec3::Zero();
+    double um = 0.0, ud = 0.0;
+    if (quintic) {
+      tr.uc0 = 0.5 * D * (D * ea.axis_accel[k] + 4.0 * WAv + 2.0 * WBv);
+      tr.uc1 = 0.5 * D * (D * eb.axis_accel[k] - 2.0 * WAv - 4.0 * WBv);
+      um = std::max(tr.uc0.norm(), tr.uc1.norm());
+      ud = (tr.uc1 - tr.uc0).norm();
+    }
+    // The roll: the rotation left between qb and the shortest turn of qa,
+    // about ub. Its rate at ta is the spin there (the shortest-turn frame
+    // does not spin at ua); at tb the spin minus the frame's spin
+    // (shortest_turn_spin). The angle is taken on the branch (mod 2 pi)
+    // nearest the one the mean rate predicts.
+    {
+      const Quat rest = e.q * (Quat::FromTwoVectors(tr.ua, tr.ub) * a.q).conjugate();
+      tr.roll_rate_a = a.omega.dot(tr.ua);
+      tr.roll_rate_b = e.omega.dot(tr.ub) - shortest_turn_spin(tr.ua, tr.ub, tr.wb);
+      const double roll = 2.0 * std::atan2(rest.vec().dot(tr.ub), rest.w());
+      const double predicted = 0.5 * D * (tr.roll_rate_a + tr.roll_rate_b);
+      constexpr double kTwoPi = 6.283185307179586;
+      tr.roll_b = roll + kTwoPi * std::round((predicted - roll) / kTwoPi);
+    }
     // The interpolated axis h(t) stays within D/4 max(|wa - ubar|, |wb - ubar|)
-    // of the chord (1 - s) ua + s ub, whose length is at least
-    // sqrt((1 + ua.ub) / 2) (at s = 1/2); |h'| <= |ubar| + |wa - ubar| + |wb - ubar|,
-    // and |d(h/|h|)/dt| <= |h'| / |h|.
-    const double Wa = (tr.wa - tr.ubar).norm(), Wb = (tr.wb - tr.ubar).norm();
-    const double len = std::sqrt(std::max(0.0, 0.5 * (1.0 + tr.ua.dot(tr.ub)))) - 0.25 * D * std::max(Wa, Wb);
+    // + um / 16 of the chord (1 - s) ua + s ub, whose length is at least
+    // sqrt((1 + ua.ub) / 2) (at s = 1/2); |h'| <= |ubar| + |wa - ubar| +
+    // |wb - ubar| + (the quintic term's slope), and |d(h/|h|)/dt| <= |h'| / |h|.
+    const double Wa = WAv.norm(), Wb = WBv.norm();
+    const double len =
+        std::sqrt(std::max(0.0, 0.5 * (1.0 + tr.ua.dot(tr.ub)))) - 0.25 * D * std::max(Wa, Wb) - um / 16.0;
     min_len = std::min(min_len, len);
-    const double h1 = tr.ubar.norm() + Wa + Wb;
+    const double h1 = tr.ubar.norm() + Wa + Wb + (D > 0.0 ? (kQuinticSlopeMax * um + ud / 16.0) / D : 0.0);
     tr.axis_rate = len > 0.0 ? h1 / len : std::numeric_limits<double>::infinity();
     // u = h / |h|: |u''| <= (|h''| + 3 |h'|^2 / |h|) / |h| (differentiate
     // P h' / |h|, P = 1 - u u^T, |P'| <= 2 |u'|); the turning rate of the
     // shape is Omega = u x u', |Omega'| <= |u''|, and a point at distance rho
     // from the centre accelerates relative to it by at most (|Omega'| + |Omega|^2) rho.
-    const Vec3 WAv = tr.wa - tr.ubar, WBv = tr.wb - tr.ubar;
-    const double h2 = D > 0.0 ? std::max((4.0 * WAv + 2.0 * WBv).norm(), (2.0 * WAv + 4.0 * WBv).norm()) / D : 0.0;
+    const double h2 = D > 0.0 ? std::max((4.0 * WAv + 2.0 * WBv).norm(), (2.0 * WAv + 4.0 * WBv).norm()) / D +
+                                    (2.0 * um + 2.0 * kQuinticSlopeMax * ud) / (D * D)
+                              : 0.0;
     tr.axis_accel = len > 0.0 ? (h2 + 3.0 * h1 * h1 / len) / len + tr.axis_rate * tr.axis_rate
                               : std::numeric_limits<double>::infinity();
   }

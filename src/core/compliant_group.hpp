@@ -72,22 +72,25 @@ struct CompliantGroup {
   std::vector<Quat> frozen_rot;
 };
 
-// Tracks of every member of g over [ta, tb] from the integrator states sa at
-// ta and sb at tb (shift applied). Returns the smallest lower bound of the
-// interpolated axis' length over the slice (1 when there is no linker); the
-// caller shortens the slice when it is small (a turn of more than ~1 rad).
-double set_tracks(BodyStore& b, const CompliantGroup& g, const std::vector<CompliantBody>& sa, double ta,
-                  const std::vector<CompliantBody>& sb, double tb);
+// Tracks of every member of g over [ta, tb] from the slice ends a at ta and
+// b at tb (shift applied): quintic when both ends carry their accelerations,
+// cubic when either has none (core/track.hpp). Returns the smallest lower
+// bound of the interpolated axis' length over the slice (1 when there is no
+// linker); the caller shortens the slice when it is small (a turn of more
+// than ~1 rad).
+double set_tracks(BodyStore& b, const CompliantGroup& g, const SliceEnd& a, double ta, const SliceEnd& e, double tb);
 
-// An estimate of how far the cubic Hermite tracks of a slice of length D
-// stray from the motion the integrator followed: for every member, the
-// distance at the slice's midpoint between its track and the quintic that
-// also matches the accelerations at both ends, for the centre plus the axis
-// scaled by the linker's half length (an end point); the largest over the
-// members. The quintic minus the cubic at the midpoint is
-// D (v_a - v_b) / 32 + D^2 (a_a + a_b) / 64: zero for every cubic motion,
+// An estimate of how far the cubic Hermite through the slice ends (without
+// their accelerations) strays from the motion the integrator followed: for
+// every member, the distance at the slice's midpoint between that cubic and
+// the quintic that also matches the accelerations at both ends, for the
+// centre plus the axis scaled by the linker's half length (an end point);
+// the largest over the members. The quintic minus the cubic at the midpoint
+// is D (v_a - v_b) / 32 + D^2 (a_a + a_b) / 64: zero for every cubic motion,
 // and like the cubic's own error it grows as D^4 times the motion's fourth
-// derivative (halving D divides it by ~16).
+// derivative (halving D divides it by ~16). The tracks themselves are the
+// quintics (set_tracks), whose error is higher order: the estimate bounds
+// it from above with a wide margin.
 double track_error_estimate(const SliceEnd& a, const SliceEnd& b, double D);
 
 // State of member i at t (inside its slice) from its track, in the

@@ -372,6 +372,9 @@ const std::vector<KeyDesc>& key_table() {
       key<&S::bonding, &B::joint_tolerance>("bonding.joint_tolerance", greater(0),
           "articulated clusters: largest joint residual (length; radians for held angles) the position "
           "projection leaves at each slice end"),
+      key<&S::bonding, &B::joint_slice>("bonding.joint_slice", closed(1e-4, 10),
+          "articulated clusters: longest slice (time) integrated ahead of the event loop; its members move on "
+          "the quintic Hermite interpolant of the slice's end states (compliant.slice serves compliant clusters)"),
 
       key<&S::compliant, &P::k>("compliant.k", at_least(0),
           "bond spring k (force/length) on the vector from a bonded sphere's centre to its target point on the "
@@ -393,10 +396,11 @@ const std::vector<KeyDesc>& key_table() {
           "absolute tolerance of the compliant integrator (every state component)"),
       key<&S::compliant, &P::slice>("compliant.slice", closed(1e-4, 10),
           "longest slice (time) a compliant cluster is integrated ahead of the event loop; its members move "
-          "on the cubic Hermite interpolant of the slice's end states"),
+          "on the quintic Hermite interpolant of the slice's end states (articulated clusters: bonding.joint_slice)"),
       key<&S::compliant, &P::track_tolerance>("compliant.track_tolerance", at_least(0),
-          "largest estimated distance (length) between a member's cubic track and the integrated motion at a "
-          "slice's midpoint; a slice that strays further is halved (stiff bonds); 0 = no check"),
+          "largest estimated distance (length) between the cubic through a slice's end states and the "
+          "integrated motion at the slice's midpoint (an upper estimate for the quintic tracks); a slice that "
+          "strays further is halved (stiff bonds); 0 = no check"),
       key<&S::compliant, &P::relax_energy>("compliant.relax_energy", at_least(0),
           "relaxed-cluster switch: internal kinetic energy at or below which a cluster counts as quiet; "
           "0 = always integrate"),
