@@ -7,9 +7,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <vector>
 
+#include <Eigen/LU>
 #include <Eigen/SVD>
 
 #include "articulated_chain.hpp"
@@ -31,13 +33,14 @@ Eigen::VectorXd residual_along(const std::vector<CompliantBody>& bodies, const J
   return joint_residual(b, joints);
 }
 
-// A four-corner open chain with every kind of row, strongly perturbed so that
-// no row sits at a special value, with random velocities.
-test::Articulated every_row_chain() {
+// A four-corner open chain with every kind of row, strongly perturbed (random
+// numbers from `seed`) so that no row sits at a special value, with random
+// velocities.
+test::Articulated every_row_chain(std::uint64_t seed = 9) {
   test::Articulated a = test::open_chain(4, 0.3, true, true);
   test::jitter_velocities(a.cluster, 0.7, 0.9, 3);
   // Move the pose away from the held one (rows nonzero, wrap away from the cusp).
-  test::Jitter rng(9);
+  test::Jitter rng(seed);
   for (CompliantBody& b : a.bodies()) {
     b.x += 0.2 * rng.vec();
     if (b.shape == Shape::Linker) b.q = (Eigen::AngleAxisd(0.2, rng.vec().normalized()) * b.q).normalized();
@@ -178,6 +181,29 @@ TEST(ConstrainedDynamics, RedundantRowsAreTolerated) {
   }
   EXPECT_LT(net_f.norm(), 1e-12);
   EXPECT_LT(net_t.norm(), 1e-12);
+}
+
+// S = G M^-1 G^T as MultiplierSolve assembles it (body by body, on the rows
+// that touch each body) against the dense product with MassMatrix::dense(),
+// and M^-1 G^T likewise, on random poses of a four-corner chain with ball
+// joints, held angles and held dihedrals.
+TEST(ConstrainedDynamics, BlockAssembledSMatchesDenseProduct) {
+  for (const std::uint64_t seed : {9u, 21u, 77u}) {
+    const test::Articulated a = every_row_chain(seed);
+    ASSERT_GT(a.joints.balls.size(), 0u);
+    ASSERT_GT(a.joints.angles.size(), 0u);
+    ASSERT_GT(a.joints.dihedrals.size(), 0u);
+    const MassMatrix m(a.cluster.bodies);
+    JointRows rows;
+    joint_rows(a.cluster.bodies, m.layout, a.joints, rows);
+    const MultiplierSolve solve(rows.g, m);
+
+    const Eigen::MatrixXd minv_gt = m.dense().inverse() * rows.g.transpose();
+    const Eigen::MatrixXd s = rows.g * minv_gt;
+    EXPECT_LT((solve.minv_gt() - minv_gt).norm(), 1e-12 * minv_gt.norm()) << "seed " << seed;
+    EXPECT_LT((solve.s() - s).norm(), 1e-12 * s.norm()) << "seed " << seed;
+    EXPECT_TRUE(solve.s() == solve.s().transpose()) << "seed " << seed;  // exactly symmetric
+  }
 }
 
 // Internal degrees of freedom = velocity coordinates - rank(G) - 6.

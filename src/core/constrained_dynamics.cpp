@@ -40,7 +40,13 @@ Eigen::MatrixXd MassMatrix::inverse_times(const Eigen::MatrixXd& f) const {
 }
 
 Eigen::VectorXd MassMatrix::inverse_times(const Eigen::VectorXd& f) const {
-  return inverse_times(Eigen::MatrixXd(f)).col(0);
+  Eigen::VectorXd x(f.size());
+  for (std::size_t i = 0; i < mass.size(); ++i) {
+    const int o = layout.offset[i];
+    x.segment<3>(o) = f.segment<3>(o) / mass[i];
+    if (linker[i]) x.segment<3>(o + 3) = inv_inertia[i] * f.segment<3>(o + 3);
+  }
+  return x;
 }
 
 Eigen::MatrixXd MassMatrix::dense() const {
@@ -55,19 +61,53 @@ Eigen::MatrixXd MassMatrix::dense() const {
 
 MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m, bool rank_revealing)
     : rows_(int(g.rows())) {
-  minv_gt_ = m.inverse_times(Eigen::MatrixXd(g.transpose()));
-  s_ = g * minv_gt_;
+  assemble(g, m);
   if (rows_ == 0) return;
   if (!rank_revealing) {
     ldlt_.compute(s_);
     if (ldlt_.info() == Eigen::Success) {
-      const Eigen::VectorXd d = ldlt_.vectorD();
+      const auto d = ldlt_.vectorD();
       full_ = d.minCoeff() > kRankThreshold * d.cwiseAbs().maxCoeff();
     }
     if (full_) return;
   }
   cod_.setThreshold(kRankThreshold);
   cod_.compute(s_);
+}
+
+void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const MassMatrix& m) {
+  minv_gt_.setZero(g.cols(), rows_);
+  s_.setZero(rows_, rows_);
+  std::vector<int> touched;  // the rows with a nonzero in body i's columns
+  touched.reserve(rows_);
+  for (std::size_t i = 0; i < m.mass.size(); ++i) {
+    const int o = m.layout.offset[i];
+    const bool linker = m.linker[i];
+    touched.clear();
+    for (int r = 0; r < rows_; ++r) {
+      if ((g.block<1, 3>(r, o).array() != 0.0).any() || (linker && (g.block<1, 3>(r, o + 3).array() != 0.0).any()))
+        touched.push_back(r);
+    }
+    // Body i's rows of M^-1 G^T (zero in the other columns): G_i,v^T / m_i,
+    // and I_i^-1 G_i,omega^T for a linker.
+    const double inv_mass = 1.0 / m.mass[i];
+    for (const int r : touched) {
+      minv_gt_.block<3, 1>(o, r) = inv_mass * g.block<1, 3>(r, o).transpose();
+      if (linker) minv_gt_.block<3, 1>(o + 3, r) = m.inv_inertia[i] * g.block<1, 3>(r, o + 3).transpose();
+    }
+    // S += G_i M_i^-1 G_i^T on the touched rows and columns; each product is
+    // computed once and added to both (a, c) and (c, a).
+    for (std::size_t kc = 0; kc < touched.size(); ++kc) {
+      const int c = touched[kc];
+      for (std::size_t ka = kc; ka < touched.size(); ++ka) {
+        const int a = touched[ka];
+        double sac = g.block<1, 3>(a, o).dot(minv_gt_.block<3, 1>(o, c));
+        if (linker) sac += g.block<1, 3>(a, o + 3).dot(minv_gt_.block<3, 1>(o + 3, c));
+        s_(a, c) += sac;
+        if (a != c) s_(c, a) += sac;
+      }
+    }
+  }
 }
 
 Eigen::VectorXd MultiplierSolve::solve(const Eigen::VectorXd& rhs) const {
@@ -96,7 +136,9 @@ Eigen::VectorXd add_constraint_loads(const std::vector<CompliantBody>& bodies, c
   joint_rows(bodies, m.layout, joints, rows);
   const MultiplierSolve solve(rows.g, m);
   const Eigen::VectorXd f = generalized_force(bodies, m, force, torque);
-  const Eigen::VectorXd lambda = solve.solve(-rows.bias - rows.g * m.inverse_times(f));
+  Eigen::VectorXd rhs = -rows.bias;
+  rhs.noalias() -= rows.g * m.inverse_times(f);
+  const Eigen::VectorXd lambda = solve.solve(rhs);
   const Eigen::VectorXd load = rows.g.transpose() * lambda;
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     const int o = m.layout.offset[i];

@@ -20,8 +20,10 @@
 // squares otherwise. Rank decisions elsewhere (internal_dof) use the same
 // threshold on the same matrix.
 //
-// Dense throughout: a cluster has at most a few tens of bodies before it is
-// rigid or closed; an O(n) solver for open chains (Baraff's) is future work.
+// G and S are stored dense: a cluster has at most a few tens of bodies before
+// it is rigid or closed; an O(n) solver for open chains (Baraff's) is future
+// work. S is assembled body by body from G's nonzero rows (M is block
+// diagonal, and a row touches 2 or 3 bodies), not by a dense product.
 
 #include <vector>
 
@@ -52,6 +54,9 @@ struct MassMatrix {
 };
 
 // S = G M^-1 G^T factorized once, solved for any right-hand side.
+// S is the sum over bodies i of G_i M_i^-1 G_i^T (G_i: G's columns of body i),
+// each added on the rows with a nonzero in those columns only; it is exactly
+// symmetric (each product G_a M_i^-1 G_c^T is added to both (a, c) and (c, a)).
 // S is symmetric positive semi-definite. A Cholesky factorization (LDL^T
 // with diagonal pivoting) serves when its pivots all stay above
 // kRankThreshold x the largest (full rank: the solution is unique and the
@@ -68,6 +73,8 @@ class MultiplierSolve {
   const Eigen::MatrixXd& s() const { return s_; }
 
  private:
+  void assemble(const Eigen::MatrixXd& g, const MassMatrix& m);  // minv_gt_ and s_
+
   int rows_;
   bool full_ = false;  // the LDL^T factors serve
   Eigen::MatrixXd minv_gt_, s_;
