@@ -117,8 +117,12 @@ struct Track {
   Vec3 xa = Vec3::Zero(), va = Vec3::Zero(), xb = Vec3::Zero(), vb = Vec3::Zero(), vbar = Vec3::Zero();
   Vec3 ua = Vec3::UnitZ(), wa = Vec3::Zero(), ub = Vec3::UnitZ(), wb = Vec3::Zero(), ubar = Vec3::Zero();
   // Quintic terms (core/track.hpp: alpha, beta) of the centre and the axis;
-  // zero: the cubic.
+  // zero: the cubic. An articulated member's track is quintic, and its spin
+  // follows the roll; a compliant member's is cubic, its spin linear in time
+  // between spin_a and spin_b.
+  bool quintic = false;
   Vec3 xc0 = Vec3::Zero(), xc1 = Vec3::Zero(), uc0 = Vec3::Zero(), uc1 = Vec3::Zero();
+  double spin_a = 0.0, spin_b = 0.0;  // angular velocity along the axis at ta, tb
   // A linker's full orientation at ta, and its roll at tb about ub relative
   // to qa carried along the shortest turn from ua to ub (radians), with the
   // roll's rates at ta and tb: the roll moves nothing in the event loop (a

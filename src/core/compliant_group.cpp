@@ -11,7 +11,10 @@ namespace ringsim {
 double set_tracks(BodyStore& b, const CompliantGroup& g, const SliceEnd& ea, double ta, const SliceEnd& eb,
                   double tb) {
   const double D = tb - ta;
-  const bool quintic = D > 0.0 && !ea.center_accel.empty() && !eb.center_accel.empty();
+  // Compliant clusters keep the cubic: the figures of docs/COMPLIANT.md were
+  // measured with it, and over a slice spanning stiff bond periods no
+  // polynomial follows the motion (the track-error check halves those).
+  const bool quintic = g.articulated && D > 0.0 && !ea.center_accel.empty() && !eb.center_accel.empty();
   double min_len = 1.0;
   for (std::size_t k = 0; k < g.members.size(); ++k) {
     const CompliantBody &a = ea.bodies[k], &e = eb.bodies[k];
@@ -35,6 +38,7 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const SliceEnd& ea, dou
     tr.dev = 0.25 * D * std::max(A, B);
     tr.center_speed = A + B;
     tr.center_accel = D > 0.0 ? std::max((4.0 * Av + 2.0 * Bv).norm(), (2.0 * Av + 4.0 * Bv).norm()) / D : 0.0;
+    tr.quintic = quintic;
     tr.xc0 = tr.xc1 = Vec3::Zero();
     if (quintic) {
       tr.xc0 = 0.5 * D * (D * ea.center_accel[k] + 4.0 * Av + 2.0 * Bv);
@@ -53,6 +57,8 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const SliceEnd& ea, dou
     tr.ub = e.axis();
     tr.wa = a.omega.cross(tr.ua);
     tr.wb = e.omega.cross(tr.ub);
+    tr.spin_a = a.omega.dot(tr.ua);
+    tr.spin_b = e.omega.dot(tr.ub);
     tr.qa = a.q;
     tr.ubar = D > 0.0 ? Vec3((tr.ub - tr.ua) / D) : tr.wa;
     const Vec3 WAv = tr.wa - tr.ubar, WBv = tr.wb - tr.ubar;
@@ -71,8 +77,8 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const SliceEnd& ea, dou
     // nearest the one the mean rate predicts.
     {
       const Quat rest = e.q * (Quat::FromTwoVectors(tr.ua, tr.ub) * a.q).conjugate();
-      tr.roll_rate_a = a.omega.dot(tr.ua);
-      tr.roll_rate_b = e.omega.dot(tr.ub) - shortest_turn_spin(tr.ua, tr.ub, tr.wb);
+      tr.roll_rate_a = tr.spin_a;
+      tr.roll_rate_b = tr.spin_b - shortest_turn_spin(tr.ua, tr.ub, tr.wb);
       const double roll = 2.0 * std::atan2(rest.vec().dot(tr.ub), rest.w());
       const double predicted = 0.5 * D * (tr.roll_rate_a + tr.roll_rate_b);
       constexpr double kTwoPi = 6.283185307179586;

@@ -73,8 +73,8 @@ struct CompliantGroup {
 };
 
 // Tracks of every member of g over [ta, tb] from the slice ends a at ta and
-// b at tb (shift applied): quintic when both ends carry their accelerations,
-// cubic when either has none (core/track.hpp). Returns the smallest lower
+// b at tb (shift applied): for an articulated group, quintic when both ends
+// carry their accelerations; otherwise cubic (core/track.hpp). Returns the smallest lower
 // bound of the interpolated axis' length over the slice (1 when there is no
 // linker); the caller shortens the slice when it is small (a turn of more
 // than ~1 rad).

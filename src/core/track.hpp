@@ -96,18 +96,25 @@ inline double shortest_turn_spin(const Vec3& a, const Vec3& u, const Vec3& du) {
 }
 
 // Angular velocity: the axis' turning, axis x d(axis)/dt, plus the spin
-// along the axis, which is the roll's rate plus the shortest-turn frame's
-// spin (track_orientation), so that the two agree.
+// along the axis. Quintic (articulated) tracks: the roll's rate plus the
+// shortest-turn frame's spin, so that it is the derivative of
+// track_orientation. Cubic (compliant) tracks: linear in time between its
+// end values (no compliant load turns a linker about its own axis, so the
+// spin stays constant there).
 inline Vec3 track_omega(const Track& k, double t) {
   Vec3 u, du;
   detail::track_axis_and_rate(k, t, &u, &du);
-  return u.cross(du) + (detail::roll_rate_at(k, t) + shortest_turn_spin(k.ua, u, du)) * u;
+  if (k.quintic) return u.cross(du) + (detail::roll_rate_at(k, t) + shortest_turn_spin(k.ua, u, du)) * u;
+  const double D = k.tb - k.ta;
+  const double s = D > 0.0 ? (t - k.ta) / D : 0.0;
+  return u.cross(du) + ((1.0 - s) * k.spin_a + s * k.spin_b) * u;
 }
-// A linker's full orientation at t: qa carried along the shortest turn from
-// ua to the track's axis, then rolled about that axis by the roll at t. Exact
-// at both ends; inside the slice the roll is the cubic through the rolls and
-// roll rates at the ends (the event loop never sees it; an articulated
-// cluster cut there fits the rolls to its joints, core/joint_projection.hpp).
+// A linker's full orientation at t (articulated members): qa carried along
+// the shortest turn from ua to the track's axis, then rolled about that axis
+// by the roll at t. Exact at both ends; inside the slice the roll is the
+// cubic through the rolls and roll rates at the ends (the event loop never
+// sees it; an articulated cluster cut there fits the rolls to its joints,
+// core/joint_projection.hpp).
 inline Quat track_orientation(const Track& k, double t) {
   const Vec3 u = track_axis(k, t);
   return (Quat(Eigen::AngleAxisd(detail::roll_at(k, t), u)) * Quat::FromTwoVectors(k.ua, u) * k.qa).normalized();
