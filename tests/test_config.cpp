@@ -60,6 +60,7 @@ void expect_same(const SimParams& a, const SimParams& b) {
   EXPECT_EQ(a.bonding.coplanarity_filter, b.bonding.coplanarity_filter);
   EXPECT_EQ(a.bonding.dphi_deg, b.bonding.dphi_deg);
   EXPECT_EQ(a.bonding.coplanarity_mode, b.bonding.coplanarity_mode);
+  EXPECT_EQ(a.bonding.exclusions, b.bonding.exclusions);
   EXPECT_EQ(a.compliant.k, b.compliant.k);
   EXPECT_EQ(a.compliant.c, b.compliant.c);
   EXPECT_EQ(a.compliant.k_omega, b.compliant.k_omega);
@@ -446,6 +447,16 @@ TEST(Config, CompliantKeys) {
   EXPECT_THROW(validate(q), ConfigError);
 }
 
+TEST(Config, OneTwoExclusionsOnlyWithArticulatedBonds) {
+  EXPECT_EQ(load_config("[bonding]\nexclusions = \"1-2\"", {}, "x.toml").bonding.exclusions, Exclusions::OneTwo);
+  EXPECT_EQ(load_config("", {}, "x.toml").bonding.exclusions, Exclusions::OneThree);
+  EXPECT_CONTAINS(error_of("", {"bonding.exclusions=1-4"}), "bonding.exclusions");
+  EXPECT_CONTAINS(error_of("", {"bonding.exclusions=1-2", "bonding.joint=welded"}),
+                  "bonding.exclusions = 1-2: only with articulated rigid bonds");
+  EXPECT_CONTAINS(error_of("", {"bonding.exclusions=1-2", "compliant.k=1000"}),
+                  "bonding.exclusions = 1-2: only with articulated rigid bonds");
+}
+
 TEST(Config, CaptureDistanceBelowLinkerLength) {
   const std::string e = error_of("[bonding]\ncapture_distance = 4");
   EXPECT_CONTAINS(e, "test.toml:2:20: bonding.capture_distance = 4: must be < geometry.linker_length = 4");
@@ -816,7 +827,7 @@ TEST(Config, ScenarioRoundTripWithEscapedStrings) {
 
 TEST(Config, KeyInfoTable) {
   const auto& keys = config_keys();
-  ASSERT_EQ(keys.size(), 67u);
+  ASSERT_EQ(keys.size(), 68u);
   for (const KeyInfo& k : keys) {
     EXPECT_FALSE(k.type.empty()) << k.name;
     EXPECT_FALSE(k.default_value.empty()) << k.name;

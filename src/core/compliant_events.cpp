@@ -59,6 +59,7 @@ bool Simulation::contact_excluded(int i, int j) const {
     const int s = si ? i : j, l = si ? j : i;
     return graph_.sphere_of(l, 0) == s || graph_.sphere_of(l, 1) == s;
   }
+  if (params_.bonding.exclusions == Exclusions::OneTwo) return false;
   if (si) {  // 1-3: two spheres on one linker
     for (const auto& [l, e] : graph_.linkers_of(i))
       if (graph_.sphere_of(l, 1 - e) == j) return true;

@@ -63,6 +63,14 @@ const char* to_string(BondJoint j) {
   return "?";
 }
 
+const char* to_string(Exclusions e) {
+  switch (e) {
+    case Exclusions::OneThree: return "1-3";
+    case Exclusions::OneTwo: return "1-2";
+  }
+  return "?";
+}
+
 const char* to_string(CompliantMethod m) {
   switch (m) {
     case CompliantMethod::Auto: return "auto";

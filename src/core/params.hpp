@@ -28,6 +28,12 @@ enum class CaptureSite { EndFace, EndPoint };
 // dihedral the filters name (the Decision; docs/ARTICULATED.md); Welded, the
 // two clusters frozen into one rigid body in the capture pose.
 enum class BondJoint { Articulated, Welded };
+// Which bonded pairs never collide (MODEL.md, "Contacts"): OneThree, bonded
+// pairs and pairs bonded to a common partner (the Decision: the usual
+// force-field exclusions); OneTwo, bonded pairs only, so that two linkers
+// on one sphere collide as the hard bodies they are (articulated bonds
+// only; docs/ARTICULATED.md, "Exclusions").
+enum class Exclusions { OneThree, OneTwo };
 // Integrator of compliant clusters (docs/COMPLIANT.md, stability study).
 enum class CompliantMethod { Auto, Bdf, Adams, Erk };
 
@@ -92,6 +98,7 @@ struct BondingParams {
   // (docs/ARTICULATED.md, "Slices and tracks"): at 0.2 the quintic tracks
   // stray from the joints by less than the integrator's own drift.
   double joint_slice = 0.2;
+  Exclusions exclusions = Exclusions::OneThree;
 };
 
 // Compliant bonds (MODEL.md, "Two bond regimes", compliant): spring-damper
@@ -182,6 +189,7 @@ const char* to_string(QueueKind q);
 const char* to_string(CoplanarityMode m);
 const char* to_string(CaptureSite s);
 const char* to_string(BondJoint j);
+const char* to_string(Exclusions e);
 const char* to_string(CompliantMethod m);
 
 }  // namespace ringsim

@@ -199,7 +199,8 @@ class Simulation {
   // The energy ledger at the present time (after synchronize or at the end).
   EnergyBudget energy_budget() const;
   // 1-2 and 1-3 pairs of the bond graph (a sphere and a linker bonded to it,
-  // two linkers on one sphere, two spheres on one linker): never in contact.
+  // two linkers on one sphere, two spheres on one linker): never in contact;
+  // with bonding.exclusions = 1-2 only the 1-2 pairs.
   bool contact_excluded(int i, int j) const;
   // A refused capture of end `end` of l by s still waiting for the end to
   // leave the shell (Predictor::capture_refused).

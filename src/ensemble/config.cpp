@@ -132,6 +132,10 @@ struct EnumValues<BondJoint> {
   static constexpr std::array all{BondJoint::Articulated, BondJoint::Welded};
 };
 template <>
+struct EnumValues<Exclusions> {
+  static constexpr std::array all{Exclusions::OneThree, Exclusions::OneTwo};
+};
+template <>
 struct EnumValues<CompliantMethod> {
   static constexpr std::array all{CompliantMethod::Auto, CompliantMethod::Bdf, CompliantMethod::Adams,
                                   CompliantMethod::Erk};
@@ -372,6 +376,10 @@ const std::vector<KeyDesc>& key_table() {
       key<&S::bonding, &B::joint_tolerance>("bonding.joint_tolerance", greater(0),
           "articulated clusters: largest joint residual (length; radians for held angles) the position "
           "projection leaves at each slice end"),
+      key<&S::bonding, &B::exclusions>("bonding.exclusions", any(),
+          "bonded pairs that never collide: 1-3 (bonded pairs and pairs bonded to a common partner, the usual "
+          "force-field exclusions; MODEL.md) or 1-2 (bonded pairs only: two linkers on one sphere collide as "
+          "hard bodies; articulated bonds only, docs/ARTICULATED.md)"),
       key<&S::bonding, &B::joint_slice>("bonding.joint_slice", closed(1e-4, 10),
           "articulated clusters: longest slice (time) integrated ahead of the event loop; its members move on "
           "the quintic Hermite interpolant of the slice's end states (compliant.slice serves compliant clusters)"),
@@ -811,6 +819,17 @@ void check_cross(const SimParams& p, const Origins& origins, Problems& problems)
                  origin(origins, key) + key + " = " + format_real(value) +
                      ": must be 0 with compliant bonds (compliant.k or compliant.k_omega > 0) and with "
                      "bonding.joint = articulated: their clusters model smooth spheres (use bonding.joint = welded)");
+  }
+
+  // Exclusions of bonded pairs only: meaningful where bonded bodies move
+  // relative to each other under hard contacts alone (articulated joints);
+  // springs (compliant) would press a 1-3 pair into contact, welded pairs
+  // never move.
+  if (p.bonding.exclusions == Exclusions::OneTwo && p.bonding.enabled && !articulated_bonds(p)) {
+    problems.add(2, 0, 0,
+                 origin(origins, "bonding.exclusions") +
+                     "bonding.exclusions = 1-2: only with articulated rigid bonds (bonding.joint = articulated, "
+                     "compliant.k = compliant.k_omega = 0); use 1-3");
   }
 
   // A steady-state test needs enough batch means to say "not steady"
