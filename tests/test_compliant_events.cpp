@@ -77,6 +77,25 @@ TEST(Track, HermiteMeetsEndDataAndItsBounds) {
   }
 }
 
+// The track set_tracks lays for one articulated member (quintic) between
+// the slice ends a (at ta) and b (at tb).
+Track articulated_track(const SliceEnd& a, double ta, const SliceEnd& b, double tb) {
+  CompliantGroup g;
+  g.members = {0};
+  g.articulated = true;
+  BodyStore store;
+  store.track.resize(1);
+  set_tracks(store, g, a, ta, b, tb);
+  return store.track[0];
+}
+SliceEnd one_body_end(const CompliantBody& s, const Vec3& center_accel, const Vec3& axis_accel) {
+  SliceEnd e;
+  e.bodies = {s};
+  e.center_accel = {center_accel};
+  e.axis_accel = {axis_accel};
+  return e;
+}
+
 // A quintic motion x(t) = sum c_k t^k handed to set_tracks at two slice
 // ends with its positions, velocities and accelerations: the track is that
 // motion (to rounding), and it stays inside the bounds it carries
@@ -94,23 +113,13 @@ TEST(Track, QuinticReproducesAQuinticMotionWithinItsBounds) {
     return r;
   };
   const double ta = 0.3, tb = 0.8, D = tb - ta;
-  CompliantGroup g;
-  g.members = {0};
-  g.articulated = true;  // quintic tracks
-  BodyStore b;
-  b.track.resize(1);
   auto end = [&](double t) {
-    SliceEnd e;
     CompliantBody s;
     s.x = at(t, 0);
     s.v = at(t, 1);
-    e.bodies = {s};
-    e.center_accel = {at(t, 2)};
-    e.axis_accel = {Vec3::Zero()};
-    return e;
+    return one_body_end(s, at(t, 2), Vec3::Zero());
   };
-  set_tracks(b, g, end(ta), ta, end(tb), tb);
-  const Track& k = b.track[0];
+  const Track k = articulated_track(end(ta), ta, end(tb), tb);
   double worst = 0.0;
   for (int n = 0; n <= 400; ++n) {
     const double t = ta + D * n / 400.0;
@@ -134,25 +143,14 @@ TEST(Track, OrientationAndAngularVelocityAgree) {
   const Quat q0 = Quat(Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()));
   auto rot = [&](double t) { return (Quat(Eigen::AngleAxisd(w.norm() * t, w.normalized())) * q0).normalized(); };
   const double ta = 0.0, tb = 0.2, D = tb - ta;
-  CompliantGroup g;
-  g.members = {0};
-  g.articulated = true;  // quintic tracks
-  BodyStore b;
-  b.track.resize(1);
   auto end = [&](double t) {
-    SliceEnd e;
     CompliantBody s;
     s.shape = Shape::Linker;
     s.q = rot(t);
     s.omega = w;
-    e.bodies = {s};
-    e.center_accel = {Vec3::Zero()};
-    const Vec3 u = s.axis();
-    e.axis_accel = {w.cross(w.cross(u))};
-    return e;
+    return one_body_end(s, Vec3::Zero(), w.cross(w.cross(s.axis())));
   };
-  set_tracks(b, g, end(ta), ta, end(tb), tb);
-  const Track& k = b.track[0];
+  const Track k = articulated_track(end(ta), ta, end(tb), tb);
   EXPECT_LT((track_omega(k, ta) - w).norm(), 1e-13);
   EXPECT_LT((track_omega(k, tb) - w).norm(), 1e-13);
   EXPECT_LT(track_orientation(k, tb).angularDistance(rot(tb)), 1e-12);
