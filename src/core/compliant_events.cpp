@@ -144,18 +144,14 @@ bool Simulation::begin_slice(int g, double t) {
                std::to_string(G.members.size()) + " bodies: " + r.reason;
       return false;
     }
+    PositionProjection pr;
     if (G.articulated) {
       // Drift back onto the joints at the slice end, in the integrator's own
       // state, before the tracks are laid (they end at the projected state,
-      // so the motion stays continuous).
-      const PositionProjection pr = G.integ->project_onto_joints(params_.bonding.joint_tolerance);
-      ++stats_.projections;
-      stats_.joint_residual = std::max(stats_.joint_residual, pr.residual_before);
-      stats_.projection_size = std::max(stats_.projection_size, pr.displacement);
-      stats_.lost_projections -= pr.velocities.energy_change;
-      // Unconverged only at a singular pose (a redundant ring's left null
-      // space, core/joint_projection.cpp): recorded; an open joint ends the run.
-      stats_.joint_residual_after = std::max(stats_.joint_residual_after, pr.residual_after);
+      // so the motion stays continuous). Unconverged only at a singular pose
+      // (a redundant ring's left null space, core/joint_projection.cpp):
+      // recorded; an open joint ends the run.
+      pr = G.integ->project_onto_joints(params_.bonding.joint_tolerance);
       if (!(pr.residual_after <= kJointOpen)) {
         termination_ = Termination::Error;
         char msg[256];
@@ -182,7 +178,16 @@ bool Simulation::begin_slice(int g, double t) {
       good = error <= cp.track_tolerance;
       track_halved = track_halved || !good;
     }
-    if (good || attempt == 30) break;
+    if (good || attempt == 30) {
+      if (G.articulated) {  // the accepted slice's projection (a halved one's is undone)
+        ++stats_.projections;
+        stats_.joint_residual = std::max(stats_.joint_residual, pr.residual_before);
+        stats_.projection_size = std::max(stats_.projection_size, pr.displacement);
+        stats_.lost_projections -= pr.velocities.energy_change;
+        stats_.joint_residual_after = std::max(stats_.joint_residual_after, pr.residual_after);
+      }
+      break;
+    }
     G.integ->mutable_state().bodies = start.bodies;
     G.integ->reinit_at(t);
     G.end_cached = false;
