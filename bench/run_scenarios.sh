@@ -35,7 +35,8 @@ for s in "${scenarios[@]}"; do
   echo "scenario $s: $reps replicates, $jobs at a time" >&2
   seq 0 $((reps - 1)) | xargs -P "$jobs" -I{} sh -c \
     'b=$0 f=$1 s=$2 o=$3; shift 3; "$b" replicate "$f" --seed "$s" --replicate {} --json "$@" > "$o.{}.json"' \
-    "$bin" "$file" "$seed" "$out/$s" "${extra[@]}"
+    "$bin" "$file" "$seed" "$out/$s" "${extra[@]}" ||
+    echo "run_scenarios: $s: some replicates ended in an error (their JSON says which: termination, error)" >&2
   for r in $(seq 0 $((reps - 1))); do cat "$out/$s.$r.json"; done > "$out/$s.jsonl"
   rm -f "$out/$s".*.json
 done
