@@ -240,15 +240,16 @@ resumed_ok() {  # resumed_ok JOB LOG: after the requeue the job started again an
     test "$state/$restarts/$starts" = COMPLETED/1/2
 }
 
-# One configuration, ~15-40 s on 2 ranks here (by load): the stop comes
+# One configuration, ~40-100 s on 2 ranks here (by load): the stop comes
 # mid-run, and an uninterrupted run of it is the reference at the end. (With
-# t_max = 50 a faster build finished all 60 replicates before the first poll
-# saw a row, so the stop came too late.)
+# t_max = 50, and again with 300 on an idle machine, the job finished all or
+# nearly all of its 60 replicates before the first poll saw a row (58 of 60
+# at 300), so the stop came too late.)
 # (Scenario first: `ringsim run`'s --set takes every following word as a value.)
 R=60
 seed=11
 # The job machinery, not the physics: the welded reading keeps replicates short.
-sets=(--set run.t_max=300 --set bonding.joint=welded)
+sets=(--set run.t_max=900 --set bonding.joint=welded)
 scenarios=(1-baseline 4-passive-selection)
 
 # --- 1. the study: job array + dependent aggregation, one task requeued ---------
