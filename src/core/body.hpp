@@ -125,11 +125,12 @@ struct Track {
   double spin_a = 0.0, spin_b = 0.0;  // angular velocity along the axis at ta, tb
   // A linker's full orientation at ta, and its roll at tb about ub relative
   // to qa carried along the shortest turn from ua to ub (radians), with the
-  // roll's rates at ta and tb: the roll moves nothing in the event loop (a
-  // cylinder of revolution) but an articulated cluster's off-axis joint
-  // anchors turn with it (track_orientation, core/track.hpp).
+  // roll's rate at tb (at ta it is spin_a: the shortest-turn frame does not
+  // spin at ua): the roll moves nothing in the event loop (a cylinder of
+  // revolution) but an articulated cluster's off-axis joint anchors turn
+  // with it (track_orientation, core/track.hpp).
   Quat qa = Quat::Identity();
-  double roll_b = 0.0, roll_rate_a = 0.0, roll_rate_b = 0.0;
+  double roll_b = 0.0, roll_rate_b = 0.0;
   Vec3 sphere_omega = Vec3::Zero();   // a sphere's constant angular velocity (smooth: never changes)
   double dev = 0.0, center_speed = 0.0, axis_rate = 0.0;
   // Second-order bounds: |x''(t)| <= center_accel; the axis' turning,

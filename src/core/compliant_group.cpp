@@ -77,10 +77,9 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const SliceEnd& ea, dou
     // nearest the one the mean rate predicts.
     {
       const Quat rest = e.q * (Quat::FromTwoVectors(tr.ua, tr.ub) * a.q).conjugate();
-      tr.roll_rate_a = tr.spin_a;
       tr.roll_rate_b = tr.spin_b - shortest_turn_spin(tr.ua, tr.ub, tr.wb);
       const double roll = 2.0 * std::atan2(rest.vec().dot(tr.ub), rest.w());
-      const double predicted = 0.5 * D * (tr.roll_rate_a + tr.roll_rate_b);
+      const double predicted = 0.5 * D * (tr.spin_a + tr.roll_rate_b);
       constexpr double kTwoPi = 6.283185307179586;
       tr.roll_b = roll + kTwoPi * std::round((predicted - roll) / kTwoPi);
     }

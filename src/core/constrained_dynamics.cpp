@@ -29,25 +29,23 @@ Eigen::VectorXd MassMatrix::times(const Eigen::VectorXd& nu) const {
   return f;
 }
 
-Eigen::MatrixXd MassMatrix::inverse_times(const Eigen::MatrixXd& f) const {
-  Eigen::MatrixXd x(f.rows(), f.cols());
-  for (std::size_t i = 0; i < mass.size(); ++i) {
-    const int o = layout.offset[i];
-    x.middleRows(o, 3) = f.middleRows(o, 3) / mass[i];
-    if (linker[i]) x.middleRows(o + 3, 3) = inv_inertia[i] * f.middleRows(o + 3, 3);
+namespace {
+// M^-1 X block by block, X a vector or a matrix (column by column): 1/m on a
+// body's velocity rows, the inverse inertia on a linker's omega rows.
+template <class X>
+X block_inverse_times(const MassMatrix& m, const X& f) {
+  X x(f.rows(), f.cols());
+  for (std::size_t i = 0; i < m.mass.size(); ++i) {
+    const int o = m.layout.offset[i];
+    x.middleRows(o, 3) = f.middleRows(o, 3) / m.mass[i];
+    if (m.linker[i]) x.middleRows(o + 3, 3) = m.inv_inertia[i] * f.middleRows(o + 3, 3);
   }
   return x;
 }
+}  // namespace
 
-Eigen::VectorXd MassMatrix::inverse_times(const Eigen::VectorXd& f) const {
-  Eigen::VectorXd x(f.size());
-  for (std::size_t i = 0; i < mass.size(); ++i) {
-    const int o = layout.offset[i];
-    x.segment<3>(o) = f.segment<3>(o) / mass[i];
-    if (linker[i]) x.segment<3>(o + 3) = inv_inertia[i] * f.segment<3>(o + 3);
-  }
-  return x;
-}
+Eigen::MatrixXd MassMatrix::inverse_times(const Eigen::MatrixXd& f) const { return block_inverse_times(*this, f); }
+Eigen::VectorXd MassMatrix::inverse_times(const Eigen::VectorXd& f) const { return block_inverse_times(*this, f); }
 
 Eigen::MatrixXd MassMatrix::dense() const {
   Eigen::MatrixXd m = Eigen::MatrixXd::Zero(layout.size, layout.size);

@@ -72,18 +72,18 @@ inline void track_axis_and_rate(const Track& k, double t, Vec3* u, Vec3* du) {
   *du = (dh - u->dot(dh) * *u) / n;  // derivative of h / |h|
 }
 // The roll at t (radians, 0 at ta, roll_b at tb): the cubic Hermite through
-// the roll rates at the ends (the same form as the centre's cubic), and its rate.
+// the roll rates at the ends (spin_a, roll_rate_b) (the same form as the centre's cubic), and its rate.
 inline double roll_at(const Track& k, double t) {
   const double D = k.tb - k.ta;
   if (!(D > 0.0)) return 0.0;
   const double s = (t - k.ta) / D, r = 1.0 - s, bar = k.roll_b / D;
-  return s * k.roll_b + D * s * r * (r * (k.roll_rate_a - bar) - s * (k.roll_rate_b - bar));
+  return s * k.roll_b + D * s * r * (r * (k.spin_a - bar) - s * (k.roll_rate_b - bar));
 }
 inline double roll_rate_at(const Track& k, double t) {
   const double D = k.tb - k.ta;
-  if (!(D > 0.0)) return k.roll_rate_a;
+  if (!(D > 0.0)) return k.spin_a;
   const double s = (t - k.ta) / D, bar = k.roll_b / D;
-  return bar + ((1.0 - s) * (1.0 - 3.0 * s)) * (k.roll_rate_a - bar) - (s * (2.0 - 3.0 * s)) * (k.roll_rate_b - bar);
+  return bar + ((1.0 - s) * (1.0 - 3.0 * s)) * (k.spin_a - bar) - (s * (2.0 - 3.0 * s)) * (k.roll_rate_b - bar);
 }
 }  // namespace detail
 
