@@ -264,9 +264,11 @@ TEST(ConstrainedDynamics, InternalDegreesOfFreedom) {
     EXPECT_LT(sv[29], 1e-14 * sv[0]);
     // The 3 surplus held rows go; the 29 left are independent and leave the
     // same single freedom.
-    JointSet kept = held_square.joints;
-    EXPECT_EQ(drop_redundant_held_rows(held_square.cluster.bodies, kept), 3);
+    JointSet kept = held_square.joints, removed;
+    EXPECT_EQ(drop_redundant_held_rows(held_square.cluster.bodies, kept, &removed), 3);
     EXPECT_EQ(kept.rows(), 29);
+    EXPECT_EQ(removed.rows(), 3);  // handed back (the event loop keeps them: Simulation::readmit_rows)
+    EXPECT_TRUE(removed.balls.empty());
     EXPECT_EQ(kept.balls.size(), held_square.joints.balls.size());
     JointRows kept_rows;
     joint_rows(held_square.cluster.bodies, m.layout, kept, kept_rows);
@@ -289,6 +291,62 @@ TEST(ConstrainedDynamics, InternalDegreesOfFreedom) {
   EXPECT_EQ(internal_dof(on_axis.cluster.bodies, on_axis.joints), 4);
   const test::Articulated on_axis_free = test::square(0.0, false, false);
   EXPECT_EQ(internal_dof(on_axis_free.cluster.bodies, on_axis_free.joints), 6);
+}
+
+// The rank decision is about directions, not sizes: S is equilibrated before
+// it is factored (core/constrained_dynamics.hpp). A held row scaled down by
+// 1e-6 (as small as a dihedral's gradient with a neighbour 1e-6 rad from the
+// axis) keeps the rank, the independence and the constraint loads; without
+// the equilibration its pivot would be ~1e-12 of the largest, far below
+// kRankThreshold, and the row would count as redundant (the dynamics would
+// stop holding it).
+TEST(ConstrainedDynamics, RankDoesNotDependOnTheSizeOfARow) {
+  for (const std::uint64_t seed : {9u, 21u, 77u}) {
+    const test::Articulated a = every_row_chain(seed);
+    const MassMatrix m(a.cluster.bodies);
+    JointRows rows;
+    joint_rows(a.cluster.bodies, m.layout, a.joints, rows);
+    const int n = int(rows.g.rows()), last = n - 1;  // a held dihedral
+    ASSERT_GT(a.joints.dihedrals.size(), 0u);
+    const MultiplierSolve full(rows.g, m);
+    ASSERT_EQ(MultiplierSolve(rows.g, m, true).rank(), n) << "seed " << seed;
+    Eigen::MatrixXd g = rows.g;
+    g.row(last) *= 1e-6;
+    const MultiplierSolve small(g, m);
+    EXPECT_EQ(MultiplierSolve(g, m, true).rank(), n) << "seed " << seed;
+    EXPECT_GT(full.independence(), 0.0);
+    EXPECT_NEAR(small.independence(), full.independence(), 1e-9 * full.independence()) << "seed " << seed;
+    // The same loads G^T lambda for the same constraint (its right-hand side
+    // scaled with its row): lambda' = lambda / 1e-6 on that row.
+    Eigen::VectorXd rhs = rows.bias, rhs_small = rows.bias;
+    rhs_small[last] *= 1e-6;
+    const Eigen::VectorXd f = rows.g.transpose() * full.solve(rhs);
+    const Eigen::VectorXd f_small = g.transpose() * small.solve(rhs_small);
+    EXPECT_LT((f - f_small).norm(), 1e-8 * f.norm()) << "seed " << seed;
+  }
+}
+
+// row_independence / MultiplierSolve::independence is the squared sine of the
+// angle between two rows (on one body the M^-1 metric is a multiple of the
+// identity), whatever the rows' lengths; 0 once the rows are dependent to
+// within kRankThreshold.
+TEST(ConstrainedDynamics, IndependenceIsTheSquaredSineBetweenTwoRows) {
+  const std::vector<CompliantBody> one = {test::sphere_at(Vec3::Zero())};
+  const MassMatrix m(one);
+  for (const double alpha : {1.2, 0.3, 1e-3}) {
+    Eigen::MatrixXd g(2, 3);
+    g.row(0) << 1.0, 0.0, 0.0;
+    g.row(1) << 7.0 * std::cos(alpha), 7.0 * std::sin(alpha), 0.0;
+    const MultiplierSolve solve(g, m);
+    const double s2 = std::sin(alpha) * std::sin(alpha);
+    EXPECT_NEAR(solve.independence(), s2, 1e-12 + 1e-9 * s2) << "alpha " << alpha;
+    EXPECT_EQ(MultiplierSolve(g, m, true).rank(), 2) << "alpha " << alpha;
+  }
+  Eigen::MatrixXd g(2, 3);
+  g.row(0) << 1.0, 0.0, 0.0;
+  g.row(1) << 3.0 * std::cos(1e-5), 3.0 * std::sin(1e-5), 0.0;  // sin^2 = 1e-10 < kRankThreshold
+  EXPECT_EQ(MultiplierSolve(g, m).independence(), 0.0);
+  EXPECT_EQ(MultiplierSolve(g, m, true).rank(), 1);
 }
 
 }  // namespace

@@ -61,8 +61,12 @@ MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m, 
     : rows_(int(g.rows())) {
   assemble(g, m);
   if (rows_ == 0) return;
+  const Eigen::VectorXd d = s_.diagonal();
+  const double zero_row = kZeroRow * d.maxCoeff();
+  scale_ = d.unaryExpr([zero_row](double x) { return x > zero_row ? 1.0 / std::sqrt(x) : 1.0; });
+  const Eigen::MatrixXd scaled = scale_.asDiagonal() * s_ * scale_.asDiagonal();
   if (!rank_revealing) {
-    ldlt_.compute(s_);
+    ldlt_.compute(scaled);
     if (ldlt_.info() == Eigen::Success) {
       const auto d = ldlt_.vectorD();
       full_ = d.minCoeff() > kRankThreshold * d.cwiseAbs().maxCoeff();
@@ -70,7 +74,7 @@ MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m, 
     if (full_) return;
   }
   cod_.setThreshold(kRankThreshold);
-  cod_.compute(s_);
+  cod_.compute(scaled);
 }
 
 void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const MassMatrix& m) {
@@ -108,9 +112,24 @@ void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const MassMatrix& m) {
   }
 }
 
+Eigen::VectorXd MultiplierSolve::row_sines2() const {
+  if (rows_ == 0 || !full_) return Eigen::VectorXd(0);
+  // Row i's squared sine to the others' span is 1 / (S~^-1)_ii (S~ has a
+  // unit diagonal: the Schur complement of the other rows).
+  const Eigen::MatrixXd inv = ldlt_.solve(Eigen::MatrixXd::Identity(rows_, rows_));
+  return inv.diagonal().cwiseInverse();
+}
+
+double MultiplierSolve::independence() const {
+  if (rows_ == 0) return 1.0;
+  if (!full_) return 0.0;
+  return row_sines2().minCoeff();
+}
+
 Eigen::VectorXd MultiplierSolve::solve(const Eigen::VectorXd& rhs) const {
   if (rows_ == 0) return Eigen::VectorXd(0);
-  return full_ ? Eigen::VectorXd(ldlt_.solve(rhs)) : Eigen::VectorXd(cod_.solve(rhs));
+  const Eigen::VectorXd b = scale_.cwiseProduct(rhs);
+  return scale_.cwiseProduct(full_ ? Eigen::VectorXd(ldlt_.solve(b)) : Eigen::VectorXd(cod_.solve(b)));
 }
 
 Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, const MassMatrix& m,
@@ -160,31 +179,96 @@ int internal_dof(const std::vector<CompliantBody>& bodies, const JointSet& joint
   return m.layout.size - solve.rank() - 6;
 }
 
-int drop_redundant_held_rows(const std::vector<CompliantBody>& bodies, JointSet& joints) {
-  if (joints.angles.empty() && joints.dihedrals.empty()) return 0;
+double row_independence(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+  if (joints.empty()) return 1.0;
   const MassMatrix m(bodies);
-  auto rank_of = [&](const JointSet& j) {
-    JointRows rows;
-    joint_rows(bodies, m.layout, j, rows);
-    return MultiplierSolve(rows.g, m, true).rank();
-  };
+  JointRows rows;
+  joint_rows(bodies, m.layout, joints, rows);
+  return MultiplierSolve(rows.g, m).independence();
+}
+
+double weakest_held_sine2(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+  const int balls = 3 * int(joints.balls.size()), held = joints.rows() - balls;
+  if (held == 0) return 1.0;
+  const MassMatrix m(bodies);
+  JointRows rows;
+  joint_rows(bodies, m.layout, joints, rows);
+  const Eigen::VectorXd s2 = MultiplierSolve(rows.g, m).row_sines2();
+  return s2.size() == 0 ? -1.0 : s2.tail(held).minCoeff();
+}
+
+namespace {
+
+// One held row of `from` (angles first, then dihedrals) as a JointSet.
+JointSet held_row(const JointSet& from, std::size_t k) {
+  JointSet one;
+  if (k < from.angles.size()) one.angles.push_back(from.angles[k]);
+  else one.dihedrals.push_back(from.dihedrals[k - from.angles.size()]);
+  return one;
+}
+
+}  // namespace
+
+double sine2_to_span(const std::vector<CompliantBody>& bodies, const JointSet& base, const JointSet& row) {
+  JointSet all = base;
+  append_joints(all, row, 0);
+  const MassMatrix m(bodies);
+  JointRows rows;
+  joint_rows(bodies, m.layout, all, rows);
+  // Rows are in joint_rows' order (balls, angles, dihedrals): an appended
+  // angle comes after base's angles, a dihedral last.
+  const int n = int(rows.g.rows()) - 1;
+  const int r = row.angles.empty() ? n : 3 * int(base.balls.size()) + int(base.angles.size());
+  const MultiplierSolve solve(rows.g, m);
+  const Eigen::MatrixXd& s = solve.s();
+  const double srr = s(r, r);
+  if (!(srr > kZeroRow * s.diagonal().maxCoeff())) return 0.0;
+  if (n == 0) return 1.0;
+  // Equilibrated: S~ = D^-1/2 S D^-1/2; the row's squared sine to the span
+  // of the others is its Schur complement 1 - b^T S~_base^+ b.
+  std::vector<int> others;
+  for (int k = 0; k <= n; ++k)
+    if (k != r) others.push_back(k);
+  Eigen::VectorXd d(n), b(n);
+  for (int k = 0; k < n; ++k) {
+    const double x = s(others[k], others[k]);
+    d[k] = x > kZeroRow * srr ? 1.0 / std::sqrt(x) : 0.0;
+    b[k] = d[k] * s(others[k], r) / std::sqrt(srr);
+  }
+  Eigen::MatrixXd sb(n, n);
+  for (int j = 0; j < n; ++j)
+    for (int k = 0; k < n; ++k) sb(k, j) = d[k] * s(others[k], others[j]) * d[j];
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod;
+  cod.setThreshold(kRankThreshold);
+  cod.compute(sb);
+  return std::max(0.0, 1.0 - b.dot(cod.solve(b)));
+}
+
+JointSet take_independent_rows(const std::vector<CompliantBody>& bodies, const JointSet& base,
+                               JointSet& candidates, double min_sine2) {
+  JointSet taken, left, with = base;
+  const std::size_t held = candidates.angles.size() + candidates.dihedrals.size();
+  for (std::size_t k = 0; k < held; ++k) {
+    const JointSet row = held_row(candidates, k);
+    const bool take = sine2_to_span(bodies, with, row) >= min_sine2;
+    append_joints(take ? taken : left, row, 0);
+    if (take) append_joints(with, row, 0);
+  }
+  candidates = std::move(left);
+  return taken;
+}
+
+int drop_redundant_held_rows(const std::vector<CompliantBody>& bodies, JointSet& joints, JointSet* removed,
+                             double min_sine2) {
+  if (joints.angles.empty() && joints.dihedrals.empty()) return 0;
+  JointSet held = joints;
+  held.balls.clear();
   JointSet kept;
   kept.balls = joints.balls;
-  int rank = rank_of(kept);
-  int dropped = 0;
-  for (const HeldAngle& a : joints.angles) {
-    kept.angles.push_back(a);
-    const int r = rank_of(kept);
-    if (r > rank) rank = r;
-    else kept.angles.pop_back(), ++dropped;
-  }
-  for (const HeldDihedral& d : joints.dihedrals) {
-    kept.dihedrals.push_back(d);
-    const int r = rank_of(kept);
-    if (r > rank) rank = r;
-    else kept.dihedrals.pop_back(), ++dropped;
-  }
+  append_joints(kept, take_independent_rows(bodies, kept, held, min_sine2), 0);
   joints = std::move(kept);
+  const int dropped = int(held.angles.size() + held.dihedrals.size());
+  if (removed) append_joints(*removed, held, 0);
   return dropped;
 }
 

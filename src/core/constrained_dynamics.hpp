@@ -35,9 +35,17 @@
 
 namespace ringsim {
 
-// Pivots below kRankThreshold x the largest count as zero (S's pivots scale
-// as (size of a row)^2 / mass; the rows are of unit size: lengths and radians).
+// S is factored with its rows equilibrated, S~ = D^-1/2 S D^-1/2 with
+// D = diag(S) (each row of G scaled to unit length in the M^-1 metric), so a
+// pivot of S~ is the squared sine of the angle between a row and the span of
+// the rows pivoted before it: a rank decision about directions, not sizes.
+// Without it a held dihedral whose neighbour swings near its axis (gradient
+// ~ |u x n|) or a light row counted as redundant and was left to drift
+// (seen: a Scenario 3 chain's dihedral 0.8 from its held value). Pivots below
+// kRankThreshold x the largest count as zero (an angle of ~3e-4 rad); a row
+// with S_ii below kZeroRow x the largest is a zero row (not scaled).
 constexpr double kRankThreshold = 1e-7;
+constexpr double kZeroRow = 1e-16;
 
 // Block-diagonal mass matrix in the velocity layout (world frame, present pose).
 struct MassMatrix {
@@ -71,12 +79,19 @@ class MultiplierSolve {
   int rank() const { return rows_ == 0 ? 0 : full_ ? rows_ : int(cod_.rank()); }
   const Eigen::MatrixXd& minv_gt() const { return minv_gt_; }  // M^-1 G^T
   const Eigen::MatrixXd& s() const { return s_; }
+  // Each row's squared sine to the span of all the others (1 / (S~^-1)_ii),
+  // empty when rank deficient (the LDL^T did not serve); independence() is
+  // their minimum (0 when rank deficient). O(rows^3): for slice ends and rare
+  // decisions, not for every right-hand side.
+  Eigen::VectorXd row_sines2() const;
+  double independence() const;
 
  private:
   void assemble(const Eigen::MatrixXd& g, const MassMatrix& m);  // minv_gt_ and s_
 
   int rows_;
   bool full_ = false;  // the LDL^T factors serve
+  Eigen::VectorXd scale_;  // D^-1/2: the factors are of S~ = D^-1/2 S D^-1/2
   Eigen::MatrixXd minv_gt_, s_;
   Eigen::LDLT<Eigen::MatrixXd> ldlt_;
   Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod_;
@@ -106,16 +121,48 @@ void cluster_loads(const CompliantCluster& cluster, const JointSet& joints, std:
 // rigidly (carry it as one rigid body). A single sphere gives -3 (no rotation).
 int internal_dof(const std::vector<CompliantBody>& bodies, const JointSet& joints);
 
-// Removes the held angles and dihedrals whose rows add nothing to the rank
-// of the joints' Jacobian at the present pose (ball joints first, then the
-// held rows in order, each kept only when it raises the rank). A ring closed
-// under the filters holds more angles and dihedrals than its axes have
-// relative freedoms (docs/ARTICULATED.md, "Multipliers, rank, degrees of
-// freedom"); the surplus rows are implied by the others to first order, and
-// kept they leave the position projection a residual in G's left null space
-// that no Gauss-Newton step removes and that the integration's drift grows
-// (seen: a closed Scenario 3 square whose joint drifted 1e-4 apart by
-// t = 128). Returns the number removed.
-int drop_redundant_held_rows(const std::vector<CompliantBody>& bodies, JointSet& joints);
+// Held angles and dihedrals are held only while their rows stay clear of
+// the span of the others: a row within kHoldSine2 (squared sine, an angle of
+// 0.01 rad in the M^-1 metric) of it is nearly implied by them, and held it
+// would take multipliers ~ 1 / sine^2 (the integrator's steps collapse) for
+// a value the others already hold to first order. A released row is held
+// again (at the value it has then) once it is kReadmitSine2 clear: the gap
+// between the two keeps a row near the limit from going back and forth.
+// docs/ARTICULATED.md, "Released rows".
+constexpr double kHoldSine2 = 1e-4;
+constexpr double kReadmitSine2 = 1e-3;
+
+// The squared sine of the angle between the single held row of `row` and
+// the span of `base`'s rows, in the M^-1 metric, at the present pose (0:
+// implied by them; 1: orthogonal to them).
+double sine2_to_span(const std::vector<CompliantBody>& bodies, const JointSet& base, const JointSet& row);
+
+// Greedy: the held rows of `candidates` in order (angles, then dihedrals),
+// each taken when its sine^2 to the span of `base` and the rows taken
+// before it is at least min_sine2. Returns the taken rows; `candidates`
+// keeps the others.
+JointSet take_independent_rows(const std::vector<CompliantBody>& bodies, const JointSet& base,
+                               JointSet& candidates, double min_sine2);
+
+// Keeps the ball joints and, in order, the held rows that are at least
+// min_sine2 clear of the span of the rows kept before them; removes the
+// others. A ring closed under the filters holds more angles and dihedrals
+// than its axes have relative freedoms (docs/ARTICULATED.md, "Multipliers,
+// rank, degrees of freedom"): the surplus rows are implied by the others to
+// first order, and kept they leave the position projection a residual in
+// G's left null space that no Gauss-Newton step removes (seen: a closed
+// Scenario 3 square whose joint drifted 1e-4 apart by t = 128). Returns the
+// number removed; `removed`, when given, receives them.
+int drop_redundant_held_rows(const std::vector<CompliantBody>& bodies, JointSet& joints,
+                             JointSet* removed = nullptr, double min_sine2 = kHoldSine2);
+
+// How independent the joints' rows are at the present pose: the squared sine
+// of the smallest angle between a row and the span of all the others, in the
+// M^-1 metric (0 when redundant, 1 when orthogonal to the rest).
+double row_independence(const std::vector<CompliantBody>& bodies, const JointSet& joints);
+
+// The smallest squared sine of a held row (angle or dihedral) to the span of
+// all the other rows, or -1 when S is rank deficient (then unknown here).
+double weakest_held_sine2(const std::vector<CompliantBody>& bodies, const JointSet& joints);
 
 }  // namespace ringsim

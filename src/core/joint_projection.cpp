@@ -67,7 +67,8 @@ PositionProjection project_positions(std::vector<CompliantBody>& bodies, const J
     r.converged = true;
     return r;
   }
-  double moved2 = 0.0;
+  double moved2 = 0.0, last_moved2 = 0.0;
+  std::vector<CompliantBody> last;  // before the latest step
   for (;;) {
     const MassMatrix m(bodies);
     JointRows rows;
@@ -80,13 +81,20 @@ PositionProjection project_positions(std::vector<CompliantBody>& bodies, const J
     // G's left null space is of second order and no Gauss-Newton step
     // removes it; the caller sees residual_after.
     if (r.iterations > 0 && res > 0.5 * r.residual_after) {
-      r.residual_after = res;
+      if (res > r.residual_after) {  // the step made it worse (near a singular pose): undo it
+        bodies = last;
+        moved2 = last_moved2;
+      } else {
+        r.residual_after = res;
+      }
       break;
     }
     r.residual_after = res;
     if (res <= tolerance || r.iterations >= max_iterations) break;
     const MultiplierSolve solve(rows.g, m);
     const Eigen::VectorXd dnu = -solve.minv_gt() * solve.solve(rows.c);
+    last = bodies;
+    last_moved2 = moved2;
     displace(bodies, m.layout, dnu);
     moved2 += dnu.dot(m.times(dnu));
     ++r.iterations;

@@ -88,6 +88,14 @@ std::string check_joints(const std::vector<CompliantBody>& bodies, const JointSe
 
 bool held_angle_defined(double theta0) { return std::sin(theta0) >= kHeldMinSine; }
 
+void append_joints(JointSet& to, const JointSet& from, int base) {
+  for (BallJoint x : from.balls) to.balls.push_back({x.sphere + base, x.linker + base, x.anchor});
+  for (HeldAngle x : from.angles)
+    to.angles.push_back({x.sphere + base, x.linker_a + base, x.end_a, x.linker_b + base, x.end_b, x.theta0});
+  for (HeldDihedral x : from.dihedrals)
+    to.dihedrals.push_back({x.linker + base, x.nb0 + base, x.nb0_end, x.nb1 + base, x.nb1_end, x.phi0});
+}
+
 bool held_dihedral_defined(const Vec3& u, const Vec3& n0, const Vec3& n1) {
   return u.cross(n0).norm() >= kHeldMinSine && u.cross(n1).norm() >= kHeldMinSine;
 }

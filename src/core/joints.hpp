@@ -114,6 +114,9 @@ std::string check_joints(const std::vector<CompliantBody>& bodies, const JointSe
 
 // Predicates for the bond rules: can this value be held? (unit axes; angle in radians)
 bool held_angle_defined(double theta0);
+// Appends `from`'s joints to `to` with every body index moved by `base`
+// (two clusters' bodies laid end to end in one).
+void append_joints(JointSet& to, const JointSet& from, int base);
 bool held_dihedral_defined(const Vec3& u, const Vec3& n0, const Vec3& n1);
 // The smallest of sin(theta) over the held angles and of max(|u x n0|,
 // |u x n1|) over the held dihedrals at the present pose (1 when there are
