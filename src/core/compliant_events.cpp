@@ -22,6 +22,9 @@ namespace {
 // A joint residual the projection cannot bring below this (length units of
 // the sphere radius; radians for held rows) is a failure, not drift.
 constexpr double kJointOpen = 1e-4;
+// A released held row (Simulation::readmit_rows) is tested for independence
+// once it strays this far from its held value (radians times sines).
+constexpr double kReadmitAbove = 1e-6;
 
 // What the integrator of group G sees for the state `model`: an articulated
 // group's model keeps its bond topology (which bonds, angles and dihedrals
@@ -138,6 +141,21 @@ bool Simulation::begin_slice(int g, double t) {
   double error = 0.0;
   for (int attempt = 0;; ++attempt) {
     const AdvanceResult r = G.integ->advance_to(t + D);
+    if (!r.ok() && G.articulated && attempt < 8) {
+      // The steps collapsed: a held row came near the others' span within
+      // the slice. Back to the slice start (a fresh integrator: a failed one
+      // cannot go on), release what is weak there, and try half the slice:
+      // its end's test (release_weak_rows) then catches the row in time.
+      CompliantCluster st = G.integ->state();
+      st.bodies = start.bodies;
+      retire_integrator(G);
+      G.integ = std::make_unique<ClusterIntegrator>(st, t, integrator_options(), G.joints);
+      release_weak_rows(G, true);
+      G.end_cached = false;
+      D *= 0.5;
+      ++stats_.failed_slices;
+      continue;
+    }
     if (!r.ok()) {
       termination_ = Termination::Error;
       error_ = std::string(G.articulated ? "articulated" : "compliant") + " cluster of " +
@@ -151,7 +169,14 @@ bool Simulation::begin_slice(int g, double t) {
       // so the motion stays continuous). Unconverged only at a singular pose
       // (a redundant ring's left null space, core/joint_projection.cpp):
       // recorded; an open joint ends the run.
-      pr = G.integ->project_onto_joints(params_.bonding.joint_tolerance);
+      const double tol = params_.bonding.joint_tolerance;
+      pr = G.integ->project_onto_joints(tol);
+      const bool stalled = !(pr.residual_after <= tol) && stalled_on_held_row(G);
+      if (release_weak_rows(G, stalled) || readmit_rows(G)) {
+        const double before = pr.residual_before;
+        pr = G.integ->project_onto_joints(tol);
+        pr.residual_before = std::max(before, pr.residual_before);
+      }
       if (!(pr.residual_after <= kJointOpen)) {
         termination_ = Termination::Error;
         char msg[256];
@@ -320,6 +345,71 @@ void Simulation::wake_cluster(int cluster, double t) {
   ++stats_.woken;
 }
 
+bool Simulation::release_weak_rows(CompliantGroup& G, bool stalled) {
+  // A held row whose gradient has come within kHoldSine2 of the span of the
+  // others (a closed Scenario 3 triangle: its dihedrals are nearly one
+  // function of the three rolls, docs/ARTICULATED.md, "Released rows") is
+  // released, as at formation: held, its multiplier would grow as 1/sine^2
+  // and the integrator's steps collapse; within kRankThreshold the dynamics
+  // stop holding it and the projection stalls on it. Tested at every slice
+  // end from the multipliers' factors when S has full rank (one inverse), by
+  // the greedy test when a projection stalls on a held row (S rank
+  // deficient: a two-linker ring) or when a slice failed (`stalled`).
+  if (G.joints.angles.empty() && G.joints.dihedrals.empty()) return false;
+  const std::vector<CompliantBody>& bodies = G.integ->state().bodies;
+  if (!stalled) {
+    const double weakest = weakest_held_sine2(bodies, G.joints);
+    if (!(weakest >= 0.0 && weakest < kHoldSine2)) return false;
+  }
+  JointSet kept = G.joints;
+  const int n = drop_redundant_held_rows(bodies, kept, &G.released, kHoldSine2);
+  if (n == 0) return false;
+  stats_.dropped_rows += n;
+  stats_.released_rows += n;
+  G.joints = kept;
+  G.readmit_above = kReadmitAbove;
+  G.integ->set_joints(std::move(kept));
+  return true;
+}
+
+bool Simulation::stalled_on_held_row(const CompliantGroup& G) const {
+  JointSet held;
+  held.angles = G.joints.angles;
+  held.dihedrals = G.joints.dihedrals;
+  if (held.empty()) return false;
+  const Eigen::VectorXd c = joint_residual(G.integ->state().bodies, held);
+  return c.cwiseAbs().maxCoeff() > params_.bonding.joint_tolerance;
+}
+
+bool Simulation::readmit_rows(CompliantGroup& G) {
+  // Released rows stray from their held values only while they stay nearly
+  // implied by the others (then to second order). Once the motion has taken
+  // one kReadmitSine2 clear of the others' span it is held again, at the
+  // value it has then (no jump: the projection has nothing to take up); how
+  // far it strayed is reported (RunStats::released_residual). The test runs
+  // when a released row has strayed above kReadmitAbove, and after one that
+  // readmits nothing, not again before that row has strayed twice as far.
+  if (G.released.empty()) return false;
+  const std::vector<CompliantBody>& bodies = G.integ->state().bodies;
+  const double strayed = joint_residual(bodies, G.released).cwiseAbs().maxCoeff();
+  stats_.released_residual = std::max(stats_.released_residual, strayed);
+  if (!(strayed > G.readmit_above)) return false;
+  const JointSet back = take_independent_rows(bodies, G.joints, G.released, kReadmitSine2);
+  const int n = int(back.angles.size() + back.dihedrals.size());
+  if (n == 0) {
+    G.readmit_above = 2.0 * strayed;
+    return false;
+  }
+  for (const HeldAngle& a : back.angles)
+    G.joints.angles.push_back(make_held_angle(bodies, a.sphere, a.linker_a, a.end_a, a.linker_b, a.end_b));
+  for (const HeldDihedral& d : back.dihedrals)
+    G.joints.dihedrals.push_back(make_held_dihedral(bodies, d.linker, d.nb0, d.nb0_end, d.nb1, d.nb1_end));
+  stats_.readmitted_rows += n;
+  G.readmit_above = kReadmitAbove;
+  G.integ->set_joints(G.joints);
+  return true;
+}
+
 void Simulation::add_group_bond(CompliantCluster& model, JointSet& joints, int s, int l, int end) {
   if (articulated_) add_articulated_bond(model, joints, s, l, end, params_.bonding);
   else add_compliant_bond(model, s, l, end, params_.bonding);
@@ -329,8 +419,30 @@ void Simulation::start_group(int g, CompliantCluster model, double t) {
   CompliantGroup& G = cgroups_[g];
   retire_integrator(G);
   if (G.articulated) {
-    // Surplus held rows (a ring closed under the filters) go first.
-    stats_.dropped_rows += drop_redundant_held_rows(model.bodies, G.joints);
+    // Model no more than the scene needs: joints that leave no internal
+    // freedom make one rigid body (exact free rotation), until the next
+    // bond. The test counts every held row, released ones too (at the rank
+    // threshold): a closed Scenario 3 triangle whose dihedrals are nearly
+    // one function of its rolls is rigid, exactly, rather than integrated
+    // with those rows released.
+    JointSet every = G.joints;
+    append_joints(every, G.released, 0);
+    G.rigid = internal_dof(model.bodies, every) <= 0;
+    if (G.rigid) {
+      // Held from now as they are (rows that had strayed, at their present values).
+      for (const HeldAngle& a : G.released.angles)
+        G.joints.angles.push_back(
+            make_held_angle(model.bodies, a.sphere, a.linker_a, a.end_a, a.linker_b, a.end_b));
+      for (const HeldDihedral& d : G.released.dihedrals)
+        G.joints.dihedrals.push_back(
+            make_held_dihedral(model.bodies, d.linker, d.nb0, d.nb0_end, d.nb1, d.nb1_end));
+      G.released = JointSet{};
+    } else {
+      // Surplus held rows (a ring closed under the filters) and rows nearly
+      // implied by the others are released (kHoldSine2).
+      stats_.dropped_rows += drop_redundant_held_rows(model.bodies, G.joints, &G.released, kHoldSine2);
+      G.readmit_above = kReadmitAbove;
+    }
     // The new joints' impulse: perfectly inelastic in the held directions
     // only (core/joint_projection.hpp), momentum and angular momentum kept.
     stats_.lost_joint_impulses -= project_velocities(model.bodies, G.joints).energy_change;
@@ -338,9 +450,6 @@ void Simulation::start_group(int g, CompliantCluster model, double t) {
   G.model = model;
   if (cluster_observer_) cluster_observer_(model, t);
   if (G.articulated) {
-    // Model no more than the scene needs: joints that leave no internal
-    // freedom make one rigid body (exact free rotation), until the next bond.
-    G.rigid = internal_dof(model.bodies, G.joints) <= 0;
     ++(G.rigid ? stats_.joint_rigid : stats_.joint_articulated);
     if (G.rigid) {
       relax_group(g, G.model, t, Freeze::Rigid);
@@ -377,7 +486,7 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
   // periodic image nearest to s.
   CompliantCluster nc;
   nc.params = params_.compliant;
-  JointSet joints;
+  JointSet joints, released;
   std::vector<int> members;
   double before = 0.0;
   auto add_side = [&](int b) {
@@ -406,11 +515,8 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
       nc.angles.push_back({x.sphere + base, x.linker_a + base, x.end_a, x.linker_b + base, x.end_b, x.theta0});
     for (CompliantDihedral x : G.model.dihedrals)
       nc.dihedrals.push_back({x.linker + base, x.nb0 + base, x.nb0_end, x.nb1 + base, x.nb1_end, x.phi0});
-    for (BallJoint x : G.joints.balls) joints.balls.push_back({x.sphere + base, x.linker + base, x.anchor});
-    for (HeldAngle x : G.joints.angles)
-      joints.angles.push_back({x.sphere + base, x.linker_a + base, x.end_a, x.linker_b + base, x.end_b, x.theta0});
-    for (HeldDihedral x : G.joints.dihedrals)
-      joints.dihedrals.push_back({x.linker + base, x.nb0 + base, x.nb0_end, x.nb1 + base, x.nb1_end, x.phi0});
+    append_joints(joints, G.joints, base);
+    append_joints(released, G.released, base);
     retire_integrator(G);
     G.alive = false;
     return base;
@@ -472,6 +578,7 @@ void Simulation::form_compliant_bond(int s, int l, int end, double t) {
   }
   bond_energy_ += potential_energy(nc) - before;
   G.joints = std::move(joints);
+  G.released = std::move(released);
   if (box_.periodic) {
     Vec3 com = Vec3::Zero();
     double mass = 0.0;

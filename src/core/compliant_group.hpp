@@ -69,6 +69,11 @@ struct CompliantGroup {
   bool articulated = false;
   bool rigid = false;
   JointSet joints;
+  // Held angles and dihedrals a rank test removed from `joints` (implied by
+  // the others at the time: drop_redundant_held_rows), kept to report how far
+  // they stray from their held values (SimStats::released_residual).
+  JointSet released;
+  double readmit_above = 0.0;  // Simulation::readmit_rows tests them when one strays above this
   std::vector<Quat> frozen_rot;
 };
 

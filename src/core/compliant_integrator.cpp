@@ -584,6 +584,10 @@ PositionProjection ClusterIntegrator::project_onto_joints(double tolerance) {
   return r;
 }
 const JointSet& ClusterIntegrator::joints() const { return impl_->joints; }
+void ClusterIntegrator::set_joints(JointSet joints) {
+  impl_->joints = std::move(joints);
+  impl_->restart();
+}
 const IntegratorStats& ClusterIntegrator::stats() const { return impl_->stats; }
 const IntegratorOptions& ClusterIntegrator::options() const { return impl_->options; }
 int ClusterIntegrator::state_size() const { return impl_->n; }

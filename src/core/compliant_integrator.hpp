@@ -156,6 +156,9 @@ class ClusterIntegrator {
   // method there (a reinit); returns the sizes of the correction.
   PositionProjection project_onto_joints(double tolerance);
   const JointSet& joints() const;
+  // Articulated: hold these joints from now on (a subset of the present
+  // ones: held rows released by a rank test) and restart the method.
+  void set_joints(JointSet joints);
 
   const IntegratorStats& stats() const;
   const IntegratorOptions& options() const;

@@ -83,6 +83,10 @@ struct RunStats {
   std::int64_t joint_rigid = 0, joint_articulated = 0;
   std::int64_t projections = 0;
   std::int64_t dropped_rows = 0;  // held angles and dihedrals implied by the others (drop_redundant_held_rows)
+  std::int64_t released_rows = 0;  // of those, the ones released later, when a projection stalled on them
+  std::int64_t failed_slices = 0;  // articulated slices whose integration failed and were retried (halved)
+  std::int64_t readmitted_rows = 0;  // dropped rows held again once independent (Simulation::readmit_rows)
+  double released_residual = 0.0;  // largest |C| of a dropped row at a slice end (radians-like: how far it strayed)
   double joint_residual = 0.0;
   double joint_residual_after = 0.0;  // largest |C| a projection left (above bonding.joint_tolerance: singular poses)
   double projection_size = 0.0;
@@ -347,6 +351,9 @@ class Simulation {
   // the group frozen into one rigid body. The new bonds' velocity impulse
   // (articulated) is applied first.
   void start_group(int g, CompliantCluster model, double t);
+  bool release_weak_rows(CompliantGroup& G, bool stalled);
+  bool stalled_on_held_row(const CompliantGroup& G) const;
+  bool readmit_rows(CompliantGroup& G);
   IntegratorOptions integrator_options() const;
   // Periodic boxes: a cluster wider than a quarter of the box ends the run
   // with an error (minimum images would be ambiguous).
