@@ -172,6 +172,10 @@ TEST(ArticulatedChain, RigidClusterMovesAsTheWeldedRigidBody) {
   ASSERT_EQ(sim.run(), Termination::TimeLimit) << sim.error();
   EXPECT_EQ(sim.stats().slices, 0);  // never integrated
   EXPECT_EQ(sim.stats().wall_collisions, 0);
+  const Simulation::ClusterShare share = sim.cluster_share();
+  EXPECT_EQ(share.rigid, 1);
+  EXPECT_EQ(share.rigid_bodies, 2);
+  EXPECT_EQ(share.articulated, 0);
 
   BodyStore ref = make_bodies(p, init);
   ref.free_all();
@@ -213,6 +217,9 @@ TEST(ArticulatedChain, StruckChainKeepsMomentaAndNeverOverlaps) {
     Simulation sim(p, make_bodies(p, init));
     ASSERT_EQ(sim.stats().bonds, 2);
     EXPECT_EQ(sim.stats().joint_articulated, 1);
+    EXPECT_EQ(sim.cluster_share().articulated, 1);
+    EXPECT_EQ(sim.cluster_share().articulated_bodies, 3);
+    EXPECT_EQ(sim.cluster_share().rigid, 0);
     Validator v(sim);
     sim.set_validator(&v);
     const Termination term = sim.run();

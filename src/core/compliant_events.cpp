@@ -345,6 +345,17 @@ void Simulation::wake_cluster(int cluster, double t) {
   ++stats_.woken;
 }
 
+Simulation::ClusterShare Simulation::cluster_share() const {
+  ClusterShare s;
+  for (const CompliantGroup& G : cgroups_) {
+    if (!G.alive || !G.articulated) continue;
+    const int n = int(G.members.size());
+    if (G.rigid) ++s.rigid, s.rigid_bodies += n;
+    else ++s.articulated, s.articulated_bodies += n;
+  }
+  return s;
+}
+
 bool Simulation::release_weak_rows(CompliantGroup& G, bool stalled) {
   // A held row whose gradient has come within kHoldSine2 of the span of the
   // others (a closed Scenario 3 triangle: its dihedrals are nearly one

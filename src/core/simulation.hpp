@@ -202,6 +202,13 @@ class Simulation {
   double bond_energy() const { return bond_energy_; }
   // The energy ledger at the present time (after synchronize or at the end).
   EnergyBudget energy_budget() const;
+  // Articulated bonds: the clusters standing now (two bodies or more), by
+  // what their joints leave them: no internal freedom (carried as one rigid
+  // body) or some (integrated with their constraints), with their bodies.
+  struct ClusterShare {
+    int rigid = 0, rigid_bodies = 0, articulated = 0, articulated_bodies = 0;
+  };
+  ClusterShare cluster_share() const;
   // 1-2 and 1-3 pairs of the bond graph (a sphere and a linker bonded to it,
   // two linkers on one sphere, two spheres on one linker): never in contact;
   // with bonding.exclusions = 1-2 only the 1-2 pairs.

@@ -183,6 +183,11 @@ nlohmann::json run_replicate(const SimParams& params, std::uint64_t seed, std::u
                         {"sundials_steps", s.sundials_steps},
                         {"sundials_rhs", s.sundials_rhs},
                         {"sundials_seconds", s.sundials_seconds}};
+    const Simulation::ClusterShare share = sim.cluster_share();
+    j["articulated"]["clusters_at_end"] = {{"rigid", share.rigid},
+                                           {"rigid_bodies", share.rigid_bodies},
+                                           {"articulated", share.articulated},
+                                           {"articulated_bodies", share.articulated_bodies}};
   }
   j["t_end"] = sim.time();
   j["termination"] = to_string(term);
