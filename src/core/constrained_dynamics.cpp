@@ -57,16 +57,27 @@ Eigen::MatrixXd MassMatrix::dense() const {
   return m;
 }
 
+namespace {
+
+// s_ij *= (a_i a_j): the product a_i a_j is the same both ways, so a
+// symmetric matrix stays exactly symmetric.
+void scale_symmetric(Eigen::MatrixXd& s, const Eigen::VectorXd& a) {
+  for (Eigen::Index j = 0; j < s.cols(); ++j)
+    for (Eigen::Index i = 0; i < s.rows(); ++i) s(i, j) *= a[i] * a[j];
+}
+
+}  // namespace
+
 MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m, bool rank_revealing)
     : rows_(int(g.rows())) {
   assemble(g, m);
   if (rows_ == 0) return;
-  const Eigen::VectorXd d = s_.diagonal();
-  const double zero_row = kZeroRow * d.maxCoeff();
-  scale_ = d.unaryExpr([zero_row](double x) { return x > zero_row ? 1.0 / std::sqrt(x) : 1.0; });
-  const Eigen::MatrixXd scaled = scale_.asDiagonal() * s_ * scale_.asDiagonal();
+  // Equilibrated in place: s_ holds S~ from here on (s() gives S back).
+  const double zero_row = kZeroRow * s_.diagonal().maxCoeff();
+  scale_ = s_.diagonal().unaryExpr([zero_row](double x) { return x > zero_row ? 1.0 / std::sqrt(x) : 1.0; });
+  scale_symmetric(s_, scale_);
   if (!rank_revealing) {
-    ldlt_.compute(scaled);
+    ldlt_.compute(s_);
     if (ldlt_.info() == Eigen::Success) {
       const auto d = ldlt_.vectorD();
       full_ = d.minCoeff() > kRankThreshold * d.cwiseAbs().maxCoeff();
@@ -74,7 +85,7 @@ MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m, 
     if (full_) return;
   }
   cod_.setThreshold(kRankThreshold);
-  cod_.compute(scaled);
+  cod_.compute(s_);
 }
 
 void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const MassMatrix& m) {
@@ -112,12 +123,21 @@ void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const MassMatrix& m) {
   }
 }
 
-Eigen::VectorXd MultiplierSolve::row_sines2() const {
+Eigen::MatrixXd MultiplierSolve::s() const {
+  if (rows_ == 0) return s_;
+  Eigen::MatrixXd s = s_;
+  scale_symmetric(s, scale_.cwiseInverse());  // D^1/2 (1 on zero rows, which are zero)
+  return s;
+}
+
+Eigen::VectorXd MultiplierSolve::row_sines2(int first) const {
   if (rows_ == 0 || !full_) return Eigen::VectorXd(0);
   // Row i's squared sine to the others' span is 1 / (S~^-1)_ii (S~ has a
-  // unit diagonal: the Schur complement of the other rows).
-  const Eigen::MatrixXd inv = ldlt_.solve(Eigen::MatrixXd::Identity(rows_, rows_));
-  return inv.diagonal().cwiseInverse();
+  // unit diagonal: the Schur complement of the other rows); the columns
+  // from `first` on only.
+  const int k = rows_ - first;
+  const Eigen::MatrixXd cols = ldlt_.solve(Eigen::MatrixXd::Identity(rows_, rows_).rightCols(k));
+  return cols.bottomRows(k).diagonal().cwiseInverse();
 }
 
 double MultiplierSolve::independence() const {
@@ -193,8 +213,8 @@ double weakest_held_sine2(const std::vector<CompliantBody>& bodies, const JointS
   const MassMatrix m(bodies);
   JointRows rows;
   joint_rows(bodies, m.layout, joints, rows);
-  const Eigen::VectorXd s2 = MultiplierSolve(rows.g, m).row_sines2();
-  return s2.size() == 0 ? -1.0 : s2.tail(held).minCoeff();
+  const Eigen::VectorXd s2 = MultiplierSolve(rows.g, m).row_sines2(balls);
+  return s2.size() == 0 ? -1.0 : s2.minCoeff();
 }
 
 namespace {

@@ -78,12 +78,13 @@ class MultiplierSolve {
   Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;  // minimum-norm lambda of S lambda = rhs
   int rank() const { return rows_ == 0 ? 0 : full_ ? rows_ : int(cod_.rank()); }
   const Eigen::MatrixXd& minv_gt() const { return minv_gt_; }  // M^-1 G^T
-  const Eigen::MatrixXd& s() const { return s_; }
+  Eigen::MatrixXd s() const;  // S = G M^-1 G^T (a copy: the solve keeps S~)
   // Each row's squared sine to the span of all the others (1 / (S~^-1)_ii),
-  // empty when rank deficient (the LDL^T did not serve); independence() is
-  // their minimum (0 when rank deficient). O(rows^3): for slice ends and rare
-  // decisions, not for every right-hand side.
-  Eigen::VectorXd row_sines2() const;
+  // rows from `first` on; empty when rank deficient (the LDL^T did not
+  // serve); independence() is their minimum over all rows (0 when rank
+  // deficient). O(rows^2 (rows - first)): for slice ends and rare decisions,
+  // not for every right-hand side.
+  Eigen::VectorXd row_sines2(int first = 0) const;
   double independence() const;
 
  private:
@@ -92,7 +93,7 @@ class MultiplierSolve {
   int rows_;
   bool full_ = false;  // the LDL^T factors serve
   Eigen::VectorXd scale_;  // D^-1/2: the factors are of S~ = D^-1/2 S D^-1/2
-  Eigen::MatrixXd minv_gt_, s_;
+  Eigen::MatrixXd minv_gt_, s_;  // s_: S while assembled, then S~ (equilibrated)
   Eigen::LDLT<Eigen::MatrixXd> ldlt_;
   Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod_;
 };
