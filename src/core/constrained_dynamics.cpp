@@ -148,8 +148,11 @@ double MultiplierSolve::independence() const {
 
 Eigen::VectorXd MultiplierSolve::solve(const Eigen::VectorXd& rhs) const {
   if (rows_ == 0) return Eigen::VectorXd(0);
-  const Eigen::VectorXd b = scale_.cwiseProduct(rhs);
-  return scale_.cwiseProduct(full_ ? Eigen::VectorXd(ldlt_.solve(b)) : Eigen::VectorXd(cod_.solve(b)));
+  Eigen::VectorXd x = scale_.cwiseProduct(rhs);
+  if (full_) ldlt_.solveInPlace(x);
+  else x = cod_.solve(x);
+  x.array() *= scale_.array();
+  return x;
 }
 
 Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, const MassMatrix& m,
