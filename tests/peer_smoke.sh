@@ -2,7 +2,8 @@
 # The Bullet peer (bench/peer, docs/PEER.md) at tiny size: it starts from
 # ringsim's scene (same packing and mixing for the same seed), prints the
 # fields of `ringsim replicate --json`, keeps an elastic gas's energy at a
-# small step, forms welded bonds, and refuses what it does not model.
+# small step, forms welded and articulated bonds, and refuses what it does
+# not model.
 # Usage: peer_smoke.sh RINGSIM_PEER RINGSIM
 set -uo pipefail
 PEER=$1
@@ -19,6 +20,9 @@ small=(--seed 3 --set init.spheres=30 --set init.linkers=30 --set geometry.box_l
 "$PEER" "${small[@]}" --set bonding.capture_distance=0.5 --set bonding.angle_filter=false \
   --set bonding.coplanarity_filter=false --set run.t_max=20 --dt 0.01 --set bonding.joint=welded > "$tmp/bond.json" ||
   fail "bonding run exited $?"
+"$PEER" "${small[@]}" --set bonding.capture_distance=0.5 --set bonding.angle_filter=false \
+  --set bonding.coplanarity_filter=false --set run.t_max=20 --dt 0.01 --set bonding.joint=articulated > "$tmp/art.json" ||
+  fail "articulated bonding run exited $?"
 
 /usr/bin/python3 - "$tmp" <<'PY' || exit 1
 import json, sys
@@ -26,6 +30,7 @@ d = sys.argv[1]
 gas = json.load(open(f"{d}/gas.json"))
 ref = json.load(open(f"{d}/gas_ref.json"))
 bond = json.load(open(f"{d}/bond.json"))
+art = json.load(open(f"{d}/art.json"))
 def check(ok, what):
     if not ok:
         print("FAIL:", what, file=sys.stderr)
@@ -36,7 +41,7 @@ shared = ["seed", "spheres", "linkers", "packing_fraction", "mixing", "events", 
           "tau_tar", "tau_tar_censored"]
 for k in shared:
     check(k in ref, f"ringsim has no field {k} (update the list)")
-    check(k in gas and k in bond, f"peer has no field {k}")
+    check(k in gas and k in bond and k in art, f"peer has no field {k}")
 check(gas["packing_fraction"] == ref["packing_fraction"] and gas["mixing"] == ref["mixing"],
       "the peer's scene is not ringsim's")
 check(gas["termination"] == "t_max" and gas["t_end"] == 5.0, f"gas ended {gas['termination']} at {gas['t_end']}")
@@ -48,10 +53,28 @@ check(bond["bonds"] > 0 and bond["peer"]["bond_constraints"] == bond["bonds"], f
 check(bond["N_t"] == 60 - bond["bonds"] + bond["N_cyc"] + sum(v for m, v in bond["rings"].items() if int(m) < 3),
       "N_t does not match the bonds")
 check(all(f in bond["peer"]["failures"] for f in ["non_finite", "escaped", "joint_drift"]), "failures not recorded")
+# Articulated: ball joints, bonds inside clusters allowed, contacts by the exclusions.
+ap = art["peer"]
+check(ap["joint"] == "articulated", f"articulated run reports joint {ap['joint']}")
+check(art["termination"] != "error", f"articulated run ended {art['termination']}")
+check(art["bonds"] > 0 and ap["constraints"]["ball"] == art["bonds"] and ap["constraints"]["fixed"] == 0,
+      f"articulated bonds {art['bonds']}, constraints {ap['constraints']}")
+check(art["N_t"] == 60 - art["bonds"] + art["N_cyc"] + sum(v for m, v in art["rings"].items() if int(m) < 3),
+      "articulated N_t does not match the bonds")
+for f in ["non_finite", "escaped"]:
+    check(ap["failures"][f]["count"] == 0, f"articulated run recorded {f}: {ap['failures'][f]}")
+check(ap["failures"]["drift_capture"]["count"] == 0, "articulated run recorded a drift_capture")
 PY
 
 "$PEER" "${small[@]}" --set bonding.joint=hinged --set run.t_max=1 > /dev/null 2>&1
 [ $? = 1 ] || fail "an unknown joint reading is not refused"
+# The held dihedral couples three linkers: no Bullet constraint row expresses it.
+"$PEER" "${small[@]}" --set bonding.joint=articulated --set bonding.coplanarity_filter=true --set run.t_max=1 \
+  > /dev/null 2> "$tmp/dihedral.err"
+code=$?
+[ $code != 0 ] || fail "articulated bonds with the coplanarity filter are not refused"
+grep -q "bonding.coplanarity_filter" "$tmp/dihedral.err" ||
+  fail "the refusal of the held dihedral does not name bonding.coplanarity_filter: $(cat "$tmp/dihedral.err")"
 "$PEER" "${small[@]}" --set geometry.boundary=periodic --set run.t_max=1 > /dev/null 2>&1
 [ $? = 1 ] || fail "a periodic box is not refused"
 echo "peer smoke test passed"

@@ -5,8 +5,9 @@
 // the fields of `ringsim replicate --json` plus "peer" (docs/PEER.md).
 //
 // `--set bonding.joint=welded|articulated` chooses how a bond is held
-// (peer.hpp); the peer reads this key itself, so it works whether or not the
-// simulator's configuration knows it.
+// (peer.hpp; welded when not set). The peer reads this key itself and also
+// passes it on to the configuration, whose checks of other keys depend on
+// it (e.g. bonding.exclusions = 1-2 needs articulated bonds).
 //
 // Exit status as ringsim's: 0 done, 1 configuration or command-line error,
 // 2 scene cannot be built, 3 the engine's run ended in an error.
@@ -49,9 +50,8 @@ int main(int argc, char** argv) {
         std::string v = s.substr(key.size());
         if (v.size() >= 2 && v.front() == '"' && v.back() == '"') v = v.substr(1, v.size() - 2);
         opt.joint = ringsim::peer::joint_reading_from_string(v);
-      } else {
-        overrides.push_back(s);
       }
+      overrides.push_back(s);
     }
     const ringsim::SimParams params = ringsim::load_config_file(scenario, overrides);
     const nlohmann::json j = ringsim::peer::run_peer(params, seed, replicate, opt);

@@ -20,11 +20,13 @@
 #include "core/bond_graph.hpp"
 #include "core/bond_rules.hpp"
 #include "core/contact.hpp"
+#include "core/joints.hpp"
 #include "core/motion.hpp"
 #include "core/prediction.hpp"
 #include "core/scene.hpp"
 #include "core/vec.hpp"
 #include "ensemble/replicate_command.hpp"
+#include "held_angle.hpp"
 #include "ringsim/version.hpp"
 
 namespace ringsim::peer {
@@ -54,15 +56,42 @@ btScalar combined_friction(const btCollisionObject* a, const btCollisionObject* 
   return btScalar(combine(g_friction_rule, a->getFriction(), b->getFriction()));
 }
 
-// Members of one cluster never collide (ringsim: their relative pose is
-// frozen). The broadphase keeps such pairs, so the near callback skips them
-// and empties any manifold they still hold. Set while a world steps.
+// Which pairs never collide. Welded: members of one cluster (ringsim: their
+// relative pose is frozen). Articulated: the bonding exclusions (MODEL.md,
+// "Contacts"; ringsim's Simulation::contact_excluded): a sphere and a linker
+// bonded to each other, and with 1-3 also two linkers on one sphere and two
+// spheres on one linker; every other pair collides, inside a cluster too.
+// The broadphase keeps excluded pairs, so the near callback skips them and
+// empties any manifold they still hold. Set while a world steps.
 const BondGraph* g_graph = nullptr;
+bool g_articulated = false;
+bool g_one_two = false;  // bonding.exclusions = 1-2
+
+bool articulated_excluded(const BondGraph& g, int i, int j, bool one_two) {
+  const bool si = g.is_sphere(i), sj = g.is_sphere(j);
+  if (si != sj) {  // 1-2: the sphere on one of the linker's ends
+    const int s = si ? i : j, l = si ? j : i;
+    return g.sphere_of(l, 0) == s || g.sphere_of(l, 1) == s;
+  }
+  if (one_two) return false;
+  if (si) {  // 1-3: two spheres on one linker
+    for (const BondedEnd& b : g.linkers_of(i))
+      if (g.sphere_of(b.linker, 1 - b.end) == j) return true;
+    return false;
+  }
+  for (int e = 0; e < 2; ++e) {  // 1-3: two linkers on one sphere
+    const int s = g.sphere_of(i, e);
+    if (s >= 0 && (g.sphere_of(j, 0) == s || g.sphere_of(j, 1) == s)) return true;
+  }
+  return false;
+}
+
 void near_callback(btBroadphasePair& pair, btCollisionDispatcher& dispatcher, const btDispatcherInfo& info) {
   const auto* a = static_cast<const btCollisionObject*>(pair.m_pProxy0->m_clientObject);
   const auto* b = static_cast<const btCollisionObject*>(pair.m_pProxy1->m_clientObject);
   const int i = a->getUserIndex(), j = b->getUserIndex();
-  if (g_graph && i >= 0 && j >= 0 && g_graph->same_component(i, j)) {
+  if (g_graph && i >= 0 && j >= 0 &&
+      (g_articulated ? articulated_excluded(*g_graph, i, j, g_one_two) : g_graph->same_component(i, j))) {
     if (pair.m_algorithm) {
       btManifoldArray manifolds;
       pair.m_algorithm->getAllContactManifolds(manifolds);
@@ -86,11 +115,22 @@ struct Failure {
 };
 
 // One bond held by a Bullet constraint, with the frames at capture (to
-// measure how far the constraint lets the pose drift).
+// measure how far the constraint lets the pose drift). Welded: a
+// btFixedConstraint holding the whole relative pose (frame_a, frame_b).
+// Articulated: a btPoint2PointConstraint, the ball joint at the sphere's
+// centre (frame_a's origin 0 in the sphere, frame_b's origin the capture
+// position of that centre in the linker's frame; their rotations unused).
 struct HeldBond {
   int a = -1, b = -1;  // body ids (sphere, linker)
   btTransform frame_a, frame_b;
   std::unique_ptr<btTypedConstraint> constraint;
+};
+
+// A held bond angle (articulated, bonding.angle_filter on): one row between
+// two linkers on one sphere (held_angle.hpp).
+struct HeldAngleRow {
+  int sphere = -1;
+  std::unique_ptr<HeldAngleConstraint> constraint;
 };
 
 class Peer {
@@ -109,10 +149,17 @@ class Peer {
     if (box_.periodic)
       throw std::invalid_argument("the Bullet peer has reflective walls only (geometry.boundary = reflective)");
     if (opt.dt <= 0 || !std::isfinite(opt.dt)) throw std::invalid_argument("--dt must be a positive number");
-    if (opt.joint == JointReading::Articulated && p.bonding.enabled)
-      throw std::invalid_argument("bonding.joint = articulated is not implemented in the peer yet (docs/PEER.md)");
     if (p.compliant.enabled() && p.bonding.enabled)
-      throw std::invalid_argument("the Bullet peer has rigid (welded) bonds only; compliant bonds are not modelled");
+      throw std::invalid_argument("the Bullet peer has rigid (welded or articulated) bonds only; compliant bonds are "
+                                  "not modelled");
+    if (opt.joint == JointReading::Articulated && p.bonding.enabled && p.bonding.coplanarity_filter)
+      throw std::invalid_argument(
+          "bonding.coplanarity_filter = true with bonding.joint = articulated is not modelled in the peer: the held "
+          "dihedral couples three linkers (the central one and its two neighbours), and a Bullet constraint row "
+          "joins two bodies (docs/PEER.md); set bonding.coplanarity_filter = false or bonding.joint = welded");
+    if (opt.joint == JointReading::Welded && p.bonding.enabled && p.bonding.exclusions == Exclusions::OneTwo)
+      throw std::invalid_argument("bonding.exclusions = 1-2 needs bonding.joint = articulated (welded clusters never "
+                                  "collide inside); use 1-3");
     store_.free_all();  // every body free: the capture gap reads kin (mirror())
     predictor_.set_capture_site(p.bonding.capture_site);
     build_world();
@@ -120,6 +167,8 @@ class Peer {
 
   ~Peer() {
     g_graph = nullptr;
+    g_articulated = false;
+    for (auto& ha : angles_) world_->removeConstraint(ha.constraint.get());
     for (auto& hb : held_) world_->removeConstraint(hb.constraint.get());
     for (auto& b : bodies_) world_->removeRigidBody(b.get());
     for (auto& w : walls_) world_->removeRigidBody(w.get());
@@ -147,6 +196,7 @@ class Peer {
   bool bond_possible() const;
   void check_state(double t);
   double bond_drift(double* angle_deg) const;
+  bool articulated() const { return opt_.joint == JointReading::Articulated; }
 
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();  // set-up included, as ringsim
   SimParams p_;
@@ -167,7 +217,8 @@ class Peer {
   std::vector<std::unique_ptr<btCollisionShape>> shapes_;
   std::vector<std::unique_ptr<btRigidBody>> bodies_, walls_;
   std::vector<btVector3> inertia_;  // principal moments in the body frame
-  std::vector<HeldBond> held_;
+  std::vector<HeldBond> held_;       // one per bond
+  std::vector<HeldAngleRow> angles_;  // articulated, angle filter on
 
   // Contact episodes: a pair touching at this step and not at the last one
   // is one collision (keys: i * (n + 6) + j, walls as n .. n + 5).
@@ -372,7 +423,10 @@ bool Peer::rules_pass(int s, int l, int end, double t) {
   const Vec3 out = outward_axis(u, end);
   if (bp.angle_filter) {
     for (const BondedEnd& other : graph_.linkers_of(s)) {
-      if (!angle_ok(bond_angle_deg(out, outward_axis(axis(other.linker), other.end)), bp)) {
+      const double theta = bond_angle_deg(out, outward_axis(axis(other.linker), other.end));
+      // Articulated: a held angle needs a measurable gradient (ringsim's
+      // rule; core/joints.hpp, held_angle_defined).
+      if (!angle_ok(theta, bp) || (articulated() && !held_angle_defined(theta * M_PI / 180.0))) {
         ++rejected_angle_;
         return false;
       }
@@ -423,7 +477,9 @@ bool Peer::rules_pass(int s, int l, int end, double t) {
 
 void Peer::form_bond(int s, int l, int end, double t, bool closure) {
   // Welded: the relative pose of this step, held by a fixed constraint whose
-  // frame sits at the sphere's centre.
+  // frame sits at the sphere's centre. Articulated: a ball joint at the
+  // sphere's centre, and with the angle filter on the angle to every linker
+  // already on the sphere held at its value of this step.
   const bool merge = !graph_.same_component(s, l);
   std::vector<int> side_s, side_l;
   if (merge && !closure) {
@@ -447,9 +503,25 @@ void Peer::form_bond(int s, int l, int end, double t, bool closure) {
   hb.b = l;
   hb.frame_a = a.getWorldTransform().inverse() * at;
   hb.frame_b = b.getWorldTransform().inverse() * at;
-  hb.constraint = std::make_unique<btFixedConstraint>(a, b, hb.frame_a, hb.frame_b);
+  if (articulated())
+    hb.constraint = std::make_unique<btPoint2PointConstraint>(a, b, hb.frame_a.getOrigin(), hb.frame_b.getOrigin());
+  else
+    hb.constraint = std::make_unique<btFixedConstraint>(a, b, hb.frame_a, hb.frame_b);
   world_->addConstraint(hb.constraint.get(), true);  // no contacts between the two
   held_.push_back(std::move(hb));
+  if (articulated() && p_.bonding.angle_filter) {
+    // ringsim's add_compliant_bond: one held angle per linker already on s
+    // (rules_pass refused the capture if one could not be held).
+    for (const BondedEnd& other : graph_.linkers_of(s)) {
+      if (other.linker == l && other.end == end) continue;
+      HeldAngleRow ha;
+      ha.sphere = s;
+      ha.constraint = std::make_unique<HeldAngleConstraint>(*bodies_[other.linker], other.end, b, end);
+      // Contacts between the two linkers are the exclusions' to decide (near_callback).
+      world_->addConstraint(ha.constraint.get(), false);
+      angles_.push_back(std::move(ha));
+    }
+  }
   monitor_.set(t, graph_.N_t());
   if (!merge || closure) return;
   // Ring closure (ringsim's rigid merge): every (sphere, free end) pair the
@@ -527,9 +599,11 @@ void Peer::captures(double t) {
     const std::uint64_t key = (2 * static_cast<std::uint64_t>(l) + e) * n_ + s;
     if (std::find(handled_.begin(), handled_.end(), key) != handled_.end()) continue;
     if (graph_.sphere_of(l, e) >= 0) continue;  // bonded earlier in this step
-    if (graph_.same_component(s, l)) {
+    if (!articulated() && graph_.same_component(s, l)) {
       // Welded: the rigid reading never captures inside a cluster; a gap
-      // crossing r_c there is the constraints' drift.
+      // crossing r_c there is the constraints' drift. (Articulated clusters
+      // flex: a capture inside one is a capture, the ring closure of a
+      // chain.)
       drift_capture_.note(t);
       continue;
     }
@@ -539,7 +613,10 @@ void Peer::captures(double t) {
 }
 
 bool Peer::bond_possible() const {
-  // A free end and a sphere below its valency in different clusters.
+  // Welded: a free end and a sphere below its valency in different clusters.
+  // Articulated: anywhere (a cluster can close a ring inside itself; the peer
+  // does not single out clusters without internal freedom, which ringsim
+  // carries rigidly).
   const BondingParams& bp = p_.bonding;
   if (bp.end_valency < 1) return false;
   int first = -1;
@@ -559,11 +636,24 @@ bool Peer::bond_possible() const {
       any_end = true;
       note(l);
     }
-  return any_sphere && any_end && spread;
+  return any_sphere && any_end && (spread || articulated());
 }
 
 double Peer::bond_drift(double* angle_deg) const {
   double worst = 0.0, worst_angle = 0.0;
+  if (articulated()) {
+    // The ball joints' separation (the two pivots in the world) and the held
+    // angles' error.
+    for (const HeldBond& hb : held_) {
+      const btVector3 pa = bodies_[hb.a]->getWorldTransform() * hb.frame_a.getOrigin();
+      const btVector3 pb = bodies_[hb.b]->getWorldTransform() * hb.frame_b.getOrigin();
+      worst = std::max(worst, double((pa - pb).length()));
+    }
+    for (const HeldAngleRow& ha : angles_)
+      worst_angle = std::max(worst_angle, double(ha.constraint->angle_error()) * 180.0 / M_PI);
+    *angle_deg = worst_angle;
+    return worst;
+  }
   for (const HeldBond& hb : held_) {
     const btTransform fa = bodies_[hb.a]->getWorldTransform() * hb.frame_a;
     const btTransform fb = bodies_[hb.b]->getWorldTransform() * hb.frame_b;
@@ -598,6 +688,8 @@ void Peer::check_state(double t) {
   max_bond_angle_deg_ = std::max(max_bond_angle_deg_, angle);
   // A held bond that moved by more than the capture shell, or turned by
   // more than the angle window: the weld no longer holds the model's pose.
+  // Articulated: a ball joint apart by more than the shell, or a held angle
+  // off by more than the window.
   if (drift > p_.bonding.capture_distance || angle > p_.bonding.dtheta_deg) joint_drift_.note(t);
 }
 
@@ -612,6 +704,8 @@ nlohmann::json Peer::run() {
   double t = 0.0;
   if (bonding) {
     g_graph = &graph_;
+    g_articulated = articulated();
+    g_one_two = p_.bonding.exclusions == Exclusions::OneTwo;
     // Pairs inside the shell at t = 0 (ringsim: rules checked at once, in
     // (sphere, linker, end) order); captures() sees them as entering.
     mirror(0.0);
@@ -687,6 +781,7 @@ nlohmann::json Peer::run() {
   peer["dt"] = opt_.dt;
   peer["steps"] = steps_;
   peer["joint"] = to_string(opt_.joint);
+  if (articulated()) peer["exclusions"] = to_string(p_.bonding.exclusions);
   peer["contact_settings"] = opt_.bullet_defaults ? "bullet_defaults" : "elastic";
   peer["solver_iterations"] = opt_.solver_iterations;
   peer["energy_drift"] = e0_ > 0 ? e_end / e0_ - 1.0 : 0.0;
@@ -696,6 +791,11 @@ nlohmann::json Peer::run() {
   peer["max_penetration_t"] = max_penetration_t_;
   peer["mean_step_penetration"] = steps_ > 0 ? sum_step_penetration_ / static_cast<double>(steps_) : 0.0;
   peer["bond_constraints"] = held_.size();
+  // Constraints by kind: fixed (welded bonds), ball (articulated bonds),
+  // held_angle (articulated, angle filter on).
+  peer["constraints"] = {{"fixed", articulated() ? 0 : held_.size()},
+                         {"ball", articulated() ? held_.size() : 0},
+                         {"held_angle", angles_.size()}};
   peer["max_bond_drift"] = max_bond_drift_;
   peer["max_bond_angle_drift_deg"] = max_bond_angle_deg_;
   peer["failures"] = {{"non_finite", non_finite_.json()},

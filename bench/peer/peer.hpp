@@ -33,8 +33,13 @@ namespace ringsim::peer {
 //    capture (ringsim's rigid reading). As in ringsim, a capture needs the
 //    two bodies in different clusters; rings close only in the scan of a
 //    merge.
-//  - Articulated: reserved (a btPoint2PointConstraint at the capture point,
-//    the held bond angle and dihedral as limits); refused today.
+//  - Articulated: a btPoint2PointConstraint per bond (the ball joint at the
+//    sphere's centre), and with bonding.angle_filter on a held bond angle per
+//    pair of linkers on one sphere (held_angle.hpp, a one-row constraint).
+//    Captures inside a cluster are bonds (ring closure by a chain folding);
+//    contacts follow bonding.exclusions (1-3 or 1-2) inside clusters too.
+//    The held dihedral (bonding.coplanarity_filter on) couples three linkers,
+//    which no Bullet constraint row between two bodies expresses: refused.
 enum class JointReading { Welded, Articulated };
 
 const char* to_string(JointReading j);
