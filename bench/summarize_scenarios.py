@@ -63,6 +63,13 @@ def main():
         for r in ok:
             term[r["termination"]] = term.get(r["termination"], 0) + 1
         row["termination"] = ", ".join(f"{k} {v}" for k, v in sorted(term.items()))
+        # Articulated bonds: clusters standing at the end, rigid or integrated
+        # (replicate --json's articulated.clusters_at_end), and the released rows.
+        share = [r["articulated"]["clusters_at_end"] for r in ok if "clusters_at_end" in r.get("articulated", {})]
+        if share:
+            for k in ["rigid", "rigid_bodies", "articulated", "articulated_bodies"]:
+                row["end_" + k] = mean_ci([x[k] for x in share])
+            row["max_released"] = max(r["articulated"]["max_released_residual"] for r in ok)
         row["wall_median"] = statistics.median(r["wall_seconds"] for r in reps)
         row["events_per_s"] = statistics.median(r["events_per_second"] for r in reps)
         rows.append(row)
@@ -84,6 +91,16 @@ def main():
     print("|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['scenario']} | {r['wall_median']:.3g} | {r['events_per_s']:.3g} | {fmt(*r['t_end'][:2])} | {r['failed']} |")
+    shared = [r for r in rows if "end_rigid" in r]
+    if shared:
+        print()
+        print("| scenario | rigid clusters at end (bodies) | articulated clusters at end (bodies) | rigid share of clustered bodies | largest stray of a released row |")
+        print("|---|---|---|---|---|")
+        for r in shared:
+            rb, ab = r["end_rigid_bodies"][0], r["end_articulated_bodies"][0]
+            print(f"| {r['scenario']} | {fmt(*r['end_rigid'][:2])} ({fmt(*r['end_rigid_bodies'][:2])}) | "
+                  f"{fmt(*r['end_articulated'][:2])} ({fmt(*r['end_articulated_bodies'][:2])}) | "
+                  f"{rb / (rb + ab):.3g} | {r['max_released']:.2g} |")
 
 
 if __name__ == "__main__":
