@@ -363,7 +363,8 @@ bool Simulation::release_weak_rows(CompliantGroup& G, bool stalled) {
   // released, as at formation: held, its multiplier would grow as 1/sine^2
   // and the integrator's steps collapse; within kRankThreshold the dynamics
   // stop holding it and the projection stalls on it. Tested at every slice
-  // end from the multipliers' factors when S has full rank (one inverse), by
+  // end from the multipliers' factors when S has full rank (the held rows'
+  // columns of S~'s inverse: weakest_held_sine2), by
   // the greedy test when a projection stalls on a held row (S rank
   // deficient: a two-linker ring) or when a slice failed (`stalled`).
   if (G.joints.angles.empty() && G.joints.dihedrals.empty()) return false;
@@ -433,9 +434,9 @@ void Simulation::start_group(int g, CompliantCluster model, double t) {
     // Model no more than the scene needs: joints that leave no internal
     // freedom make one rigid body (exact free rotation), until the next
     // bond. The test counts every held row, released ones too (at the rank
-    // threshold): a closed Scenario 3 triangle whose dihedrals are nearly
-    // one function of its rolls is rigid, exactly, rather than integrated
-    // with those rows released.
+    // threshold): a cluster that all its rows together leave rigid holds
+    // them all exactly, even where some are nearly implied by the others;
+    // only an integrated cluster releases rows.
     JointSet every = G.joints;
     append_joints(every, G.released, 0);
     G.rigid = internal_dof(model.bodies, every) <= 0;
