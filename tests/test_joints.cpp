@@ -314,8 +314,11 @@ TEST(ConstrainedDynamics, RankDoesNotDependOnTheSizeOfARow) {
     g.row(last) *= 1e-6;
     const MultiplierSolve small(g, m);
     EXPECT_EQ(MultiplierSolve(g, m, true).rank(), n) << "seed " << seed;
-    EXPECT_GT(full.independence(), 0.0);
-    EXPECT_NEAR(small.independence(), full.independence(), 1e-9 * full.independence()) << "seed " << seed;
+    ASSERT_EQ(full.row_sines2().size(), n);
+    ASSERT_EQ(small.row_sines2().size(), n);
+    const double weakest = full.row_sines2().minCoeff();
+    EXPECT_GT(weakest, 0.0);
+    EXPECT_NEAR(small.row_sines2().minCoeff(), weakest, 1e-9 * weakest) << "seed " << seed;
     // The same loads G^T lambda for the same constraint (its right-hand side
     // scaled with its row): lambda' = lambda / 1e-6 on that row.
     Eigen::VectorXd rhs = rows.bias, rhs_small = rows.bias;
@@ -326,10 +329,10 @@ TEST(ConstrainedDynamics, RankDoesNotDependOnTheSizeOfARow) {
   }
 }
 
-// row_independence / MultiplierSolve::independence is the squared sine of the
-// angle between two rows (on one body the M^-1 metric is a multiple of the
-// identity), whatever the rows' lengths; 0 once the rows are dependent to
-// within kRankThreshold.
+// MultiplierSolve::row_sines2 gives, for each of two rows, the squared sine
+// of the angle between them (on one body the M^-1 metric is a multiple of
+// the identity), whatever the rows' lengths; none once the rows are
+// dependent to within kRankThreshold.
 TEST(ConstrainedDynamics, IndependenceIsTheSquaredSineBetweenTwoRows) {
   const std::vector<CompliantBody> one = {test::sphere_at(Vec3::Zero())};
   const MassMatrix m(one);
@@ -339,13 +342,15 @@ TEST(ConstrainedDynamics, IndependenceIsTheSquaredSineBetweenTwoRows) {
     g.row(1) << 7.0 * std::cos(alpha), 7.0 * std::sin(alpha), 0.0;
     const MultiplierSolve solve(g, m);
     const double s2 = std::sin(alpha) * std::sin(alpha);
-    EXPECT_NEAR(solve.independence(), s2, 1e-12 + 1e-9 * s2) << "alpha " << alpha;
+    ASSERT_EQ(solve.row_sines2().size(), 2);
+    EXPECT_NEAR(solve.row_sines2()[0], s2, 1e-12 + 1e-9 * s2) << "alpha " << alpha;
+    EXPECT_NEAR(solve.row_sines2()[1], s2, 1e-12 + 1e-9 * s2) << "alpha " << alpha;
     EXPECT_EQ(MultiplierSolve(g, m, true).rank(), 2) << "alpha " << alpha;
   }
   Eigen::MatrixXd g(2, 3);
   g.row(0) << 1.0, 0.0, 0.0;
   g.row(1) << 3.0 * std::cos(1e-5), 3.0 * std::sin(1e-5), 0.0;  // sin^2 = 1e-10 < kRankThreshold
-  EXPECT_EQ(MultiplierSolve(g, m).independence(), 0.0);
+  EXPECT_EQ(MultiplierSolve(g, m).row_sines2().size(), 0);  // rank deficient: none
   EXPECT_EQ(MultiplierSolve(g, m, true).rank(), 1);
 }
 

@@ -58,7 +58,7 @@ btScalar combined_friction(const btCollisionObject* a, const btCollisionObject* 
 
 // Which pairs never collide. Welded: members of one cluster (ringsim: their
 // relative pose is frozen). Articulated: the bonding exclusions (MODEL.md,
-// "Contacts"; ringsim's Simulation::contact_excluded): a sphere and a linker
+// "Contacts"; BondGraph::excluded, as ringsim): a sphere and a linker
 // bonded to each other, and with 1-3 also two linkers on one sphere and two
 // spheres on one linker; every other pair collides, inside a cluster too.
 // The broadphase keeps excluded pairs, so the near callback skips them and
@@ -67,31 +67,12 @@ const BondGraph* g_graph = nullptr;
 bool g_articulated = false;
 bool g_one_two = false;  // bonding.exclusions = 1-2
 
-bool articulated_excluded(const BondGraph& g, int i, int j, bool one_two) {
-  const bool si = g.is_sphere(i), sj = g.is_sphere(j);
-  if (si != sj) {  // 1-2: the sphere on one of the linker's ends
-    const int s = si ? i : j, l = si ? j : i;
-    return g.sphere_of(l, 0) == s || g.sphere_of(l, 1) == s;
-  }
-  if (one_two) return false;
-  if (si) {  // 1-3: two spheres on one linker
-    for (const BondedEnd& b : g.linkers_of(i))
-      if (g.sphere_of(b.linker, 1 - b.end) == j) return true;
-    return false;
-  }
-  for (int e = 0; e < 2; ++e) {  // 1-3: two linkers on one sphere
-    const int s = g.sphere_of(i, e);
-    if (s >= 0 && (g.sphere_of(j, 0) == s || g.sphere_of(j, 1) == s)) return true;
-  }
-  return false;
-}
-
 void near_callback(btBroadphasePair& pair, btCollisionDispatcher& dispatcher, const btDispatcherInfo& info) {
   const auto* a = static_cast<const btCollisionObject*>(pair.m_pProxy0->m_clientObject);
   const auto* b = static_cast<const btCollisionObject*>(pair.m_pProxy1->m_clientObject);
   const int i = a->getUserIndex(), j = b->getUserIndex();
   if (g_graph && i >= 0 && j >= 0 &&
-      (g_articulated ? articulated_excluded(*g_graph, i, j, g_one_two) : g_graph->same_component(i, j))) {
+      (g_articulated ? g_graph->excluded(i, j, !g_one_two) : g_graph->same_component(i, j))) {
     if (pair.m_algorithm) {
       btManifoldArray manifolds;
       pair.m_algorithm->getAllContactManifolds(manifolds);

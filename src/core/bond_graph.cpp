@@ -98,6 +98,25 @@ int BondGraph::component(int v) const {
 
 int BondGraph::degree(int v) const { return degree_[v]; }
 
+bool BondGraph::excluded(int i, int j, bool one_three) const {
+  const bool si = is_sphere(i), sj = is_sphere(j);
+  if (si != sj) {  // 1-2: the sphere bonded to one of the linker's ends
+    const int s = si ? i : j, l = si ? j : i;
+    return sphere_of(l, 0) == s || sphere_of(l, 1) == s;
+  }
+  if (!one_three) return false;
+  if (si) {  // 1-3: two spheres on one linker
+    for (const auto& [l, e] : linkers_of(i))
+      if (sphere_of(l, 1 - e) == j) return true;
+    return false;
+  }
+  for (int e = 0; e < 2; ++e) {  // 1-3: two linkers on one sphere
+    const int s = sphere_of(i, e);
+    if (s >= 0 && (sphere_of(j, 0) == s || sphere_of(j, 1) == s)) return true;
+  }
+  return false;
+}
+
 int BondGraph::sphere_of(int linker, int end) const { return linker_ends_[linker - n_s_][end]; }
 
 int BondGraph::free_sphere_slots(int sphere_valency) const {

@@ -140,6 +140,11 @@ class BondGraph {
   bool end_bonded(int linker, int end) const { return sphere_of(linker, end) >= 0; }
   int sphere_of(int linker, int end) const;  // -1 if free
   const std::vector<BondedEnd>& linkers_of(int sphere) const { return sphere_adj_[sphere]; }
+  // Contact exclusions (MODEL.md, "Contacts"): i and j (body ids, spheres
+  // first) are bonded to each other (1-2), or, with one_three, bonded to a
+  // common partner (1-3: two linkers on one sphere, two spheres on one
+  // linker). ringsim (Simulation::contact_excluded) and the Bullet peer.
+  bool excluded(int i, int j, bool one_three) const;
 
   int component(int v) const;  // representative (root); no path compression
   bool same_component(int a, int b) const { return component(a) == component(b); }

@@ -56,23 +56,7 @@ IntegratorOptions Simulation::integrator_options() const {
 }
 
 bool Simulation::contact_excluded(int i, int j) const {
-  if (!params_.bonding.enabled) return false;
-  const bool si = bodies_.shape[i] == Shape::Sphere, sj = bodies_.shape[j] == Shape::Sphere;
-  if (si != sj) {  // 1-2: the sphere bonded to one of the linker's ends
-    const int s = si ? i : j, l = si ? j : i;
-    return graph_.sphere_of(l, 0) == s || graph_.sphere_of(l, 1) == s;
-  }
-  if (params_.bonding.exclusions == Exclusions::OneTwo) return false;
-  if (si) {  // 1-3: two spheres on one linker
-    for (const auto& [l, e] : graph_.linkers_of(i))
-      if (graph_.sphere_of(l, 1 - e) == j) return true;
-    return false;
-  }
-  for (int e = 0; e < 2; ++e) {  // 1-3: two linkers on one sphere
-    const int s = graph_.sphere_of(i, e);
-    if (s >= 0 && (graph_.sphere_of(j, 0) == s || graph_.sphere_of(j, 1) == s)) return true;
-  }
-  return false;
+  return params_.bonding.enabled && graph_.excluded(i, j, params_.bonding.exclusions == Exclusions::OneThree);
 }
 
 void Simulation::retire_integrator(CompliantGroup& g) {
@@ -385,12 +369,11 @@ bool Simulation::release_weak_rows(CompliantGroup& G, bool stalled) {
 }
 
 bool Simulation::stalled_on_held_row(const CompliantGroup& G) const {
-  JointSet held;
-  held.angles = G.joints.angles;
-  held.dihedrals = G.joints.dihedrals;
-  if (held.empty()) return false;
-  const Eigen::VectorXd c = joint_residual(G.integ->state().bodies, held);
-  return c.cwiseAbs().maxCoeff() > params_.bonding.joint_tolerance;
+  const int held = G.joints.rows() - 3 * int(G.joints.balls.size());
+  if (held == 0) return false;
+  // joint_residual's rows: the balls, then the held rows.
+  const Eigen::VectorXd c = joint_residual(G.integ->state().bodies, G.joints);
+  return c.tail(held).cwiseAbs().maxCoeff() > params_.bonding.joint_tolerance;
 }
 
 bool Simulation::readmit_rows(CompliantGroup& G) {
@@ -412,10 +395,7 @@ bool Simulation::readmit_rows(CompliantGroup& G) {
     G.readmit_above = 2.0 * strayed;
     return false;
   }
-  for (const HeldAngle& a : back.angles)
-    G.joints.angles.push_back(make_held_angle(bodies, a.sphere, a.linker_a, a.end_a, a.linker_b, a.end_b));
-  for (const HeldDihedral& d : back.dihedrals)
-    G.joints.dihedrals.push_back(make_held_dihedral(bodies, d.linker, d.nb0, d.nb0_end, d.nb1, d.nb1_end));
+  append_held_at_present(G.joints, back, bodies);
   stats_.readmitted_rows += n;
   G.readmit_above = kReadmitAbove;
   G.integ->set_joints(G.joints);
@@ -442,12 +422,7 @@ void Simulation::start_group(int g, CompliantCluster model, double t) {
     G.rigid = internal_dof(model.bodies, every) <= 0;
     if (G.rigid) {
       // Held from now as they are (rows that had strayed, at their present values).
-      for (const HeldAngle& a : G.released.angles)
-        G.joints.angles.push_back(
-            make_held_angle(model.bodies, a.sphere, a.linker_a, a.end_a, a.linker_b, a.end_b));
-      for (const HeldDihedral& d : G.released.dihedrals)
-        G.joints.dihedrals.push_back(
-            make_held_dihedral(model.bodies, d.linker, d.nb0, d.nb0_end, d.nb1, d.nb1_end));
+      append_held_at_present(G.joints, G.released, model.bodies);
       G.released = JointSet{};
     } else {
       // Surplus held rows (a ring closed under the filters) and rows nearly

@@ -140,12 +140,6 @@ Eigen::VectorXd MultiplierSolve::row_sines2(int first) const {
   return cols.bottomRows(k).diagonal().cwiseInverse();
 }
 
-double MultiplierSolve::independence() const {
-  if (rows_ == 0) return 1.0;
-  if (!full_) return 0.0;
-  return row_sines2().minCoeff();
-}
-
 Eigen::VectorXd MultiplierSolve::solve(const Eigen::VectorXd& rhs) const {
   if (rows_ == 0) return Eigen::VectorXd(0);
   Eigen::VectorXd x = scale_.cwiseProduct(rhs);
@@ -200,14 +194,6 @@ int internal_dof(const std::vector<CompliantBody>& bodies, const JointSet& joint
   joint_rows(bodies, m.layout, joints, rows);
   const MultiplierSolve solve(rows.g, m, true);
   return m.layout.size - solve.rank() - 6;
-}
-
-double row_independence(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
-  if (joints.empty()) return 1.0;
-  const MassMatrix m(bodies);
-  JointRows rows;
-  joint_rows(bodies, m.layout, joints, rows);
-  return MultiplierSolve(rows.g, m).independence();
 }
 
 double weakest_held_sine2(const std::vector<CompliantBody>& bodies, const JointSet& joints) {

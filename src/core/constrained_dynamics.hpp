@@ -81,11 +81,9 @@ class MultiplierSolve {
   Eigen::MatrixXd s() const;  // S = G M^-1 G^T (a copy: the solve keeps S~)
   // Each row's squared sine to the span of all the others (1 / (S~^-1)_ii),
   // rows from `first` on; empty when rank deficient (the LDL^T did not
-  // serve); independence() is their minimum over all rows (0 when rank
-  // deficient). O(rows^2 (rows - first)): for slice ends and rare decisions,
-  // not for every right-hand side.
+  // serve). O(rows^2 (rows - first)): for slice ends and rare decisions, not
+  // for every right-hand side.
   Eigen::VectorXd row_sines2(int first = 0) const;
-  double independence() const;
 
  private:
   void assemble(const Eigen::MatrixXd& g, const MassMatrix& m);  // minv_gt_ and s_
@@ -156,11 +154,6 @@ JointSet take_independent_rows(const std::vector<CompliantBody>& bodies, const J
 // number removed; `removed`, when given, receives them.
 int drop_redundant_held_rows(const std::vector<CompliantBody>& bodies, JointSet& joints,
                              JointSet* removed = nullptr, double min_sine2 = kHoldSine2);
-
-// How independent the joints' rows are at the present pose: the squared sine
-// of the smallest angle between a row and the span of all the others, in the
-// M^-1 metric (0 when redundant, 1 when orthogonal to the rest).
-double row_independence(const std::vector<CompliantBody>& bodies, const JointSet& joints);
 
 // The smallest squared sine of a held row (angle or dihedral) to the span of
 // all the other rows, or -1 when S is rank deficient (then unknown here).

@@ -88,6 +88,13 @@ std::string check_joints(const std::vector<CompliantBody>& bodies, const JointSe
 
 bool held_angle_defined(double theta0) { return std::sin(theta0) >= kHeldMinSine; }
 
+void append_held_at_present(JointSet& to, const JointSet& rows, const std::vector<CompliantBody>& bodies) {
+  for (const HeldAngle& a : rows.angles)
+    to.angles.push_back(make_held_angle(bodies, a.sphere, a.linker_a, a.end_a, a.linker_b, a.end_b));
+  for (const HeldDihedral& d : rows.dihedrals)
+    to.dihedrals.push_back(make_held_dihedral(bodies, d.linker, d.nb0, d.nb0_end, d.nb1, d.nb1_end));
+}
+
 void append_joints(JointSet& to, const JointSet& from, int base) {
   for (BallJoint x : from.balls) to.balls.push_back({x.sphere + base, x.linker + base, x.anchor});
   for (HeldAngle x : from.angles)

@@ -117,6 +117,9 @@ bool held_angle_defined(double theta0);
 // Appends `from`'s joints to `to` with every body index moved by `base`
 // (two clusters' bodies laid end to end in one).
 void append_joints(JointSet& to, const JointSet& from, int base);
+// Appends `rows`' held angles and dihedrals to `to`, each held at its value
+// at the present pose (a released row held again).
+void append_held_at_present(JointSet& to, const JointSet& rows, const std::vector<CompliantBody>& bodies);
 bool held_dihedral_defined(const Vec3& u, const Vec3& n0, const Vec3& n1);
 // The smallest of sin(theta) over the held angles and of max(|u x n0|,
 // |u x n1|) over the held dihedrals at the present pose (1 when there are
