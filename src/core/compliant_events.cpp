@@ -134,7 +134,7 @@ bool Simulation::begin_slice(int g, double t) {
       st.bodies = start.bodies;
       retire_integrator(G);
       G.integ = std::make_unique<ClusterIntegrator>(st, t, integrator_options(), G.joints);
-      release_weak_rows(G, true);
+      release_weak_rows(G, true, -1.0);
       G.end_cached = false;
       D *= 0.5;
       ++stats_.failed_slices;
@@ -154,9 +154,9 @@ bool Simulation::begin_slice(int g, double t) {
       // (a redundant ring's left null space, core/joint_projection.cpp):
       // recorded; an open joint ends the run.
       const double tol = params_.bonding.joint_tolerance;
-      pr = G.integ->project_onto_joints(tol);
+      pr = G.integ->project_onto_joints(tol, true);
       const bool stalled = !(pr.residual_after <= tol) && stalled_on_held_row(G);
-      if (release_weak_rows(G, stalled) || readmit_rows(G)) {
+      if (release_weak_rows(G, stalled, pr.velocities.weakest_held_sine2) || readmit_rows(G)) {
         const double before = pr.residual_before;
         pr = G.integ->project_onto_joints(tol);
         pr.residual_before = std::max(before, pr.residual_before);
@@ -340,23 +340,20 @@ Simulation::ClusterShare Simulation::cluster_share() const {
   return s;
 }
 
-bool Simulation::release_weak_rows(CompliantGroup& G, bool stalled) {
+bool Simulation::release_weak_rows(CompliantGroup& G, bool stalled, double weakest) {
   // A held row whose gradient has come within kHoldSine2 of the span of the
   // others (a closed Scenario 3 triangle: its dihedrals are nearly one
   // function of the three rolls, docs/ARTICULATED.md, "Released rows") is
   // released, as at formation: held, its multiplier would grow as 1/sine^2
   // and the integrator's steps collapse; within kRankThreshold the dynamics
   // stop holding it and the projection stalls on it. Tested at every slice
-  // end from the multipliers' factors when S has full rank (the held rows'
-  // columns of S~'s inverse: weakest_held_sine2), by
+  // end from the slice-end velocity projection's factors when S has full
+  // rank (`weakest`: the held rows' columns of S~'s inverse), by
   // the greedy test when a projection stalls on a held row (S rank
   // deficient: a two-linker ring) or when a slice failed (`stalled`).
   if (G.joints.angles.empty() && G.joints.dihedrals.empty()) return false;
   const std::vector<CompliantBody>& bodies = G.integ->state().bodies;
-  if (!stalled) {
-    const double weakest = weakest_held_sine2(bodies, G.joints);
-    if (!(weakest >= 0.0 && weakest < kHoldSine2)) return false;
-  }
+  if (!stalled && !(weakest >= 0.0 && weakest < kHoldSine2)) return false;
   JointSet kept = G.joints;
   const int n = drop_redundant_held_rows(bodies, kept, &G.released, kHoldSine2);
   if (n == 0) return false;

@@ -578,8 +578,8 @@ void ClusterIntegrator::reinit_at(double t) {
   impl_->t = t;
   impl_->restart();
 }
-PositionProjection ClusterIntegrator::project_onto_joints(double tolerance) {
-  PositionProjection r = project_positions(impl_->cluster.bodies, impl_->joints, tolerance);
+PositionProjection ClusterIntegrator::project_onto_joints(double tolerance, bool held_sines) {
+  PositionProjection r = project_positions(impl_->cluster.bodies, impl_->joints, tolerance, 8, held_sines);
   impl_->restart();
   return r;
 }

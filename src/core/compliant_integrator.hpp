@@ -154,7 +154,7 @@ class ClusterIntegrator {
   // Articulated: projects the state onto the joints (positions by
   // Gauss-Newton to max |C| <= tolerance, then velocities) and restarts the
   // method there (a reinit); returns the sizes of the correction.
-  PositionProjection project_onto_joints(double tolerance);
+  PositionProjection project_onto_joints(double tolerance, bool held_sines = false);
   const JointSet& joints() const;
   // Articulated: hold these joints from now on (a subset of the present
   // ones: held rows released by a rank test) and restart the method.

@@ -196,16 +196,6 @@ int internal_dof(const std::vector<CompliantBody>& bodies, const JointSet& joint
   return m.layout.size - solve.rank() - 6;
 }
 
-double weakest_held_sine2(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
-  const int balls = 3 * int(joints.balls.size()), held = joints.rows() - balls;
-  if (held == 0) return 1.0;
-  const MassMatrix m(bodies);
-  JointRows rows;
-  joint_rows(bodies, m.layout, joints, rows);
-  const Eigen::VectorXd s2 = MultiplierSolve(rows.g, m).row_sines2(balls);
-  return s2.size() == 0 ? -1.0 : s2.minCoeff();
-}
-
 namespace {
 
 // One held row of `from` (angles first, then dihedrals) as a JointSet.

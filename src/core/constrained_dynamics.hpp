@@ -155,8 +155,4 @@ JointSet take_independent_rows(const std::vector<CompliantBody>& bodies, const J
 int drop_redundant_held_rows(const std::vector<CompliantBody>& bodies, JointSet& joints,
                              JointSet* removed = nullptr, double min_sine2 = kHoldSine2);
 
-// The smallest squared sine of a held row (angle or dihedral) to the span of
-// all the other rows, or -1 when S is rank deficient (then unknown here).
-double weakest_held_sine2(const std::vector<CompliantBody>& bodies, const JointSet& joints);
-
 }  // namespace ringsim

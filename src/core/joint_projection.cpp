@@ -11,7 +11,7 @@ double max_abs(const Eigen::VectorXd& x) { return x.size() == 0 ? 0.0 : x.cwiseA
 
 }  // namespace
 
-VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints) {
+VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints, bool held_sines) {
   VelocityProjection r;
   if (joints.empty()) return r;
   const MassMatrix m(bodies);
@@ -25,6 +25,11 @@ VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const 
   r.residual_before = max_abs(gv);
   r.residual_after = max_abs(rows.g * nu1);
   r.energy_change = 0.5 * (nu1.dot(m.times(nu1)) - nu.dot(m.times(nu)));
+  const int balls = 3 * int(joints.balls.size());
+  if (held_sines && joints.rows() > balls) {
+    const Eigen::VectorXd s2 = solve.row_sines2(balls);  // the held rows come after the balls
+    r.weakest_held_sine2 = s2.size() == 0 ? -1.0 : s2.minCoeff();
+  }
   return r;
 }
 
@@ -61,7 +66,7 @@ RollFit fit_rolls(std::vector<CompliantBody>& bodies, const JointSet& joints, in
 }
 
 PositionProjection project_positions(std::vector<CompliantBody>& bodies, const JointSet& joints, double tolerance,
-                                     int max_iterations) {
+                                     int max_iterations, bool held_sines) {
   PositionProjection r;
   if (joints.empty()) {
     r.converged = true;
@@ -101,7 +106,7 @@ PositionProjection project_positions(std::vector<CompliantBody>& bodies, const J
   }
   r.converged = r.residual_after <= tolerance;
   r.displacement = std::sqrt(moved2);
-  r.velocities = project_velocities(bodies, joints);
+  r.velocities = project_velocities(bodies, joints, held_sines);
   return r;
 }
 

@@ -31,8 +31,13 @@ struct VelocityProjection {
   double residual_before = 0.0;  // max |G nu| before
   double residual_after = 0.0;   // after
   double energy_change = 0.0;    // kinetic energy after - before (<= 0)
+  // With held_sines: the smallest squared sine of a held row to the span of
+  // the other rows (MultiplierSolve::row_sines2 on the projection's own
+  // factors), -1 when S is rank deficient, 1 without held rows.
+  double weakest_held_sine2 = 1.0;
 };
-VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints);
+VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints,
+                                      bool held_sines = false);
 
 // The linkers' rolls about their own axes that best satisfy the joints
 // (Gauss-Newton on the roll angles alone, least squares, at most
@@ -54,8 +59,9 @@ struct PositionProjection {
   VelocityProjection velocities; // the velocity projection that follows
 };
 // Gauss-Newton on positions (at most max_iterations steps, fewer when a step
-// no longer halves the residual: a singular pose), then velocities.
+// no longer halves the residual: a singular pose), then velocities (with
+// held_sines, they also measure the held rows: VelocityProjection).
 PositionProjection project_positions(std::vector<CompliantBody>& bodies, const JointSet& joints, double tolerance,
-                                     int max_iterations = 8);
+                                     int max_iterations = 8, bool held_sines = false);
 
 }  // namespace ringsim

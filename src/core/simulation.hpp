@@ -358,7 +358,7 @@ class Simulation {
   // the group frozen into one rigid body. The new bonds' velocity impulse
   // (articulated) is applied first.
   void start_group(int g, CompliantCluster model, double t);
-  bool release_weak_rows(CompliantGroup& G, bool stalled);
+  bool release_weak_rows(CompliantGroup& G, bool stalled, double weakest);
   bool stalled_on_held_row(const CompliantGroup& G) const;
   bool readmit_rows(CompliantGroup& G);
   IntegratorOptions integrator_options() const;
