@@ -160,12 +160,16 @@ TEST(ConstrainedDynamics, RedundantRowsAreTolerated) {
   add_constraint_loads(a.cluster.bodies, a.joints, f1, tau1);
   JointSet twice = a.joints;
   twice.balls.push_back(a.joints.balls[0]);
-  const Eigen::VectorXd lambda = add_constraint_loads(a.cluster.bodies, twice, f2, tau2);
+  add_constraint_loads(a.cluster.bodies, twice, f2, tau2);
   for (int i = 0; i < 3; ++i) {
     EXPECT_LT((f1[i] - f2[i]).norm(), 1e-10);
     EXPECT_LT((tau1[i] - tau2[i]).norm(), 1e-10);
   }
   // Minimum norm: the duplicated rows share the multiplier equally.
+  JointRows both;
+  joint_rows(a.cluster.bodies, m.layout, twice, both);
+  const Eigen::VectorXd lambda = MultiplierSolve(both.g, m).solve(
+      -both.bias - both.g * m.inverse_times(generalized_force(a.cluster.bodies, m, f, tau)));
   EXPECT_LT((lambda.segment<3>(0) - lambda.segment<3>(6)).norm(), 1e-9);
 
   // The constrained accelerations satisfy G nu' + bias = 0.
@@ -181,6 +185,82 @@ TEST(ConstrainedDynamics, RedundantRowsAreTolerated) {
   }
   EXPECT_LT(net_f.norm(), 1e-12);
   EXPECT_LT(net_t.norm(), 1e-12);
+}
+
+// The constraint loads are solved with every sphere riding on its host
+// linker (core/constrained_dynamics.hpp): against the accelerations of the
+// full problem in maximal coordinates, from the dense saddle-point system
+// [M G^T; G 0] (nu', -lambda) = (f, -b) solved here by a complete orthogonal
+// decomposition (minimum norm where rows are redundant), on clusters with
+// every kind of row (at random velocities, on the joints and moved off
+// them), a closed held square (redundant rows) and a sphere on three linkers.
+TEST(ConstrainedDynamics, SpheresRidingOnHostsGiveTheFullAccelerations) {
+  auto check = [](const test::Articulated& a, const char* what) {
+    const std::vector<CompliantBody>& b = a.cluster.bodies;
+    const int n = int(b.size());
+    std::vector<Vec3> f(n), tau(n);
+    for (int i = 0; i < n; ++i) {  // some applied loads
+      f[i] = Vec3(std::sin(1.0 + i), std::cos(2.0 * i), 0.5 - 0.1 * i);
+      tau[i] = Vec3(0.2 * i - 1.0, std::sin(3.0 * i), 0.7);
+    }
+    std::vector<Vec3> f1 = f, tau1 = tau;
+    add_constraint_loads(b, a.joints, f1, tau1);
+    const Eigen::VectorXd acc = [&] {
+      const MassMatrix m(b);
+      return Eigen::VectorXd(m.inverse_times(generalized_force(b, m, f1, tau1)));
+    }();
+
+    const MassMatrix m(b);
+    JointRows rows;
+    joint_rows(b, m.layout, a.joints, rows);
+    const int nv = m.layout.size, nr = int(rows.g.rows());
+    Eigen::MatrixXd kkt = Eigen::MatrixXd::Zero(nv + nr, nv + nr);
+    kkt.topLeftCorner(nv, nv) = m.dense();
+    kkt.topRightCorner(nv, nr) = rows.g.transpose();
+    kkt.bottomLeftCorner(nr, nv) = rows.g;
+    Eigen::VectorXd rhs(nv + nr);
+    rhs << generalized_force(b, m, f, tau), -rows.bias;
+    const Eigen::VectorXd ref = kkt.completeOrthogonalDecomposition().solve(rhs).head(nv);
+    EXPECT_LT((acc - ref).cwiseAbs().maxCoeff(), 1e-10 * std::max(1.0, ref.cwiseAbs().maxCoeff())) << what;
+    EXPECT_LT((rows.g * acc + rows.bias).cwiseAbs().maxCoeff(), 1e-10) << what;  // C'' = 0
+  };
+
+  test::Articulated chain = every_row_chain();
+  check(chain, "chain with every row");
+  // Redundant rows are consistent only where the velocities keep the joints
+  // (C' = 0): the square's random velocities projected onto G's null space.
+  test::Articulated square = test::square(0.15, true, true);
+  test::jitter_velocities(square.cluster, 0.5, 0.8, 4);
+  {
+    const VelocityLayout layout(square.bodies());
+    JointRows rows;
+    joint_rows(square.bodies(), layout, square.joints, rows);
+    Eigen::VectorXd nu = velocity_vector(square.bodies(), layout);
+    nu -= rows.g.completeOrthogonalDecomposition().solve(rows.g * nu);
+    set_velocities(square.bodies(), layout, nu);
+  }
+  check(square, "held square (redundant rows)");
+  // Off the joints: every body moved a little at random, so C != 0 and C' != 0.
+  std::uint64_t state = 77;
+  auto next = [&state] {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return double(state >> 11) / double(1ULL << 53) - 0.5;
+  };
+  for (CompliantBody& body : chain.bodies()) {
+    body.x += 0.02 * Vec3(next(), next(), next());
+    body.q = (Eigen::AngleAxisd(0.02 * next(), Vec3(next(), next(), next()).normalized()) * body.q).normalized();
+  }
+  check(chain, "moved off the joints");
+  // A sphere on three linkers (a branch: valency raised), two of its ball
+  // joints not its host's, and a sphere at the far end of the third linker.
+  test::Articulated branch = test::lsl(0.5 * kPi, 0.2, true);
+  const double d = test::reach();
+  branch.cluster.bodies.push_back(test::linker_at(Vec3(0.1, 0.2, d), Vec3::UnitZ(), 0.3));
+  branch.cluster.bodies.push_back(test::sphere_at(Vec3(0.1, 0.2, 2.0 * d)));
+  branch.joints.balls.push_back(make_ball_joint(branch.bodies(), 1, 3));
+  branch.joints.balls.push_back(make_ball_joint(branch.bodies(), 4, 3));
+  test::jitter_velocities(branch.cluster, 0.5, 0.8, 6);
+  check(branch, "branch");
 }
 
 // S = G M^-1 G^T as MultiplierSolve assembles it (body by body, on the rows

@@ -57,6 +57,37 @@ Eigen::MatrixXd MassMatrix::dense() const {
   return m;
 }
 
+void InverseMassBlocks::add(int w, const Eigen::Matrix<double, 6, 6>& inverse) {
+  offset.push_back(size);
+  width.push_back(w);
+  inv.push_back(inverse);
+  size += w;
+}
+
+Eigen::VectorXd InverseMassBlocks::times(const Eigen::VectorXd& f) const {
+  Eigen::VectorXd x(size);
+  for (std::size_t i = 0; i < offset.size(); ++i) {
+    const int o = offset[i];
+    if (width[i] == 6) x.segment<6>(o) = inv[i] * f.segment<6>(o);
+    else x.segment<3>(o) = inv[i].topLeftCorner<3, 3>() * f.segment<3>(o);
+  }
+  return x;
+}
+
+InverseMassBlocks MassMatrix::inverse_blocks() const {
+  InverseMassBlocks b;
+  b.offset.reserve(mass.size());
+  b.width.reserve(mass.size());
+  b.inv.reserve(mass.size());
+  for (std::size_t i = 0; i < mass.size(); ++i) {
+    Eigen::Matrix<double, 6, 6> a = Eigen::Matrix<double, 6, 6>::Zero();
+    a.topLeftCorner<3, 3>() = Mat3::Identity() / mass[i];
+    if (linker[i]) a.bottomRightCorner<3, 3>() = inv_inertia[i];
+    b.add(linker[i] ? 6 : 3, a);
+  }
+  return b;
+}
+
 namespace {
 
 // s_ij *= (a_i a_j): the product a_i a_j is the same both ways, so a
@@ -69,8 +100,15 @@ void scale_symmetric(Eigen::MatrixXd& s, const Eigen::VectorXd& a) {
 }  // namespace
 
 MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m, bool rank_revealing)
+    : MultiplierSolve(g, m.inverse_blocks(), rank_revealing) {}
+
+MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, bool rank_revealing)
     : rows_(int(g.rows())) {
-  assemble(g, m);
+  assemble(g, minv);
+  factor(rank_revealing);
+}
+
+void MultiplierSolve::factor(bool rank_revealing) {
   if (rows_ == 0) return;
   // Equilibrated in place: s_ holds S~ from here on (s() gives S back).
   const double zero_row = kZeroRow * s_.diagonal().maxCoeff();
@@ -88,38 +126,45 @@ MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m, 
   cod_.compute(s_);
 }
 
-void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const MassMatrix& m) {
+namespace {
+
+// One block's share of the assembly: body i's rows of M^-1 G^T (zero in the
+// other columns) and S += G_i M_i^-1 G_i^T on the rows that touch it, each
+// product computed once and added to both (a, c) and (c, a).
+template <int W>
+void add_block(const Eigen::MatrixXd& g, const Eigen::Matrix<double, 6, 6>& inv, int o,
+               const std::vector<int>& touched, Eigen::MatrixXd& minv_gt, Eigen::MatrixXd& s) {
+  const Eigen::Matrix<double, W, W> a = inv.topLeftCorner<W, W>();
+  for (const int r : touched) minv_gt.block<W, 1>(o, r) = a * g.block<1, W>(r, o).transpose();
+  for (std::size_t kc = 0; kc < touched.size(); ++kc) {
+    const int c = touched[kc];
+    for (std::size_t ka = kc; ka < touched.size(); ++ka) {
+      const int r = touched[ka];
+      const double src = g.block<1, W>(r, o).dot(minv_gt.block<W, 1>(o, c));
+      s(r, c) += src;
+      if (r != c) s(c, r) += src;
+    }
+  }
+}
+
+}  // namespace
+
+void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const InverseMassBlocks& minv) {
   minv_gt_.setZero(g.cols(), rows_);
   s_.setZero(rows_, rows_);
-  std::vector<int> touched;  // the rows with a nonzero in body i's columns
+  std::vector<int> touched;  // the rows with a nonzero in block i's columns
   touched.reserve(rows_);
-  for (std::size_t i = 0; i < m.mass.size(); ++i) {
-    const int o = m.layout.offset[i];
-    const bool linker = m.linker[i];
+  for (std::size_t i = 0; i < minv.offset.size(); ++i) {
+    const int o = minv.offset[i], w = minv.width[i];
     touched.clear();
-    for (int r = 0; r < rows_; ++r) {
-      if ((g.block<1, 3>(r, o).array() != 0.0).any() || (linker && (g.block<1, 3>(r, o + 3).array() != 0.0).any()))
-        touched.push_back(r);
-    }
-    // Body i's rows of M^-1 G^T (zero in the other columns): G_i,v^T / m_i,
-    // and I_i^-1 G_i,omega^T for a linker.
-    const double inv_mass = 1.0 / m.mass[i];
-    for (const int r : touched) {
-      minv_gt_.block<3, 1>(o, r) = inv_mass * g.block<1, 3>(r, o).transpose();
-      if (linker) minv_gt_.block<3, 1>(o + 3, r) = m.inv_inertia[i] * g.block<1, 3>(r, o + 3).transpose();
-    }
-    // S += G_i M_i^-1 G_i^T on the touched rows and columns; each product is
-    // computed once and added to both (a, c) and (c, a).
-    for (std::size_t kc = 0; kc < touched.size(); ++kc) {
-      const int c = touched[kc];
-      for (std::size_t ka = kc; ka < touched.size(); ++ka) {
-        const int a = touched[ka];
-        double sac = g.block<1, 3>(a, o).dot(minv_gt_.block<3, 1>(o, c));
-        if (linker) sac += g.block<1, 3>(a, o + 3).dot(minv_gt_.block<3, 1>(o + 3, c));
-        s_(a, c) += sac;
-        if (a != c) s_(c, a) += sac;
-      }
-    }
+    for (int r = 0; r < rows_; ++r)
+      for (int k = 0; k < w; ++k)
+        if (g(r, o + k) != 0.0) {
+          touched.push_back(r);
+          break;
+        }
+    if (w == 6) add_block<6>(g, minv.inv[i], o, touched, minv_gt_, s_);
+    else add_block<3>(g, minv.inv[i], o, touched, minv_gt_, s_);
   }
 }
 
@@ -162,24 +207,99 @@ Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, cons
   return f;
 }
 
-Eigen::VectorXd add_constraint_loads(const std::vector<CompliantBody>& bodies, const JointSet& joints,
-                                     std::vector<Vec3>& force, std::vector<Vec3>& torque) {
-  if (joints.empty()) return Eigen::VectorXd(0);
-  const MassMatrix m(bodies);
-  JointRows rows;
-  joint_rows(bodies, m.layout, joints, rows);
-  const MultiplierSolve solve(rows.g, m);
-  const Eigen::VectorXd f = generalized_force(bodies, m, force, torque);
-  Eigen::VectorXd rhs = -rows.bias;
-  rhs.noalias() -= rows.g * m.inverse_times(f);
-  const Eigen::VectorXd lambda = solve.solve(rhs);
-  const Eigen::VectorXd load = rows.g.transpose() * lambda;
-  for (std::size_t i = 0; i < bodies.size(); ++i) {
-    const int o = m.layout.offset[i];
-    force[i] += load.segment<3>(o);
-    if (bodies[i].shape == Shape::Linker) torque[i] += load.segment<3>(o + 3);
+namespace {
+
+// The inverse of a rigid body's mass matrix about a point other than its
+// centre of mass, [[a 1, B], [B^T, C]] (a the mass, B = -B^T): by the Schur
+// complement K = C - B^T B / a (the inertia about the centre of mass),
+// [[1/a + B K^-1 B^T / a^2, -B K^-1 / a], [-K^-1 B^T / a, K^-1]]. A point
+// mass (B = C = 0) gives 1/a in the top-left block only.
+Eigen::Matrix<double, 6, 6> inverse_rigid_mass(const Eigen::Matrix<double, 6, 6>& m) {
+  Eigen::Matrix<double, 6, 6> inv = Eigen::Matrix<double, 6, 6>::Zero();
+  const double a = m(0, 0);
+  const Mat3 b = m.topRightCorner<3, 3>(), c = m.bottomRightCorner<3, 3>();
+  if (c.isZero(0.0)) {
+    inv.topLeftCorner<3, 3>() = Mat3::Identity() / a;
+    return inv;
   }
-  return lambda;
+  const Mat3 k_inv = (c - b.transpose() * b / a).inverse();
+  const Mat3 bk = b * k_inv / a;
+  inv.topLeftCorner<3, 3>() = Mat3::Identity() / a + bk * b.transpose() / a;
+  inv.topRightCorner<3, 3>() = -bk;
+  inv.bottomLeftCorner<3, 3>() = -bk.transpose();
+  inv.bottomRightCorner<3, 3>() = k_inv;
+  return inv;
+}
+
+}  // namespace
+
+void add_constraint_loads(const std::vector<CompliantBody>& bodies, const JointSet& joints,
+                          std::vector<Vec3>& force, std::vector<Vec3>& torque) {
+  if (joints.empty()) return;
+  const int n = int(bodies.size());
+  const MassMatrix m(bodies);
+  const Eigen::VectorXd f = generalized_force(bodies, m, force, torque);
+  const HostedColumns hc(bodies, joints);
+
+  // M_r = T^T M T block by block: a linker's own diag(m 1, I), plus for each
+  // sphere it hosts (mass m_S at arm r) [[m_S 1, -m_S [r]x], [m_S [r]x,
+  // -m_S [r]x^2]]; a sphere without a joint keeps m 1. f_r = T^T (f - M c):
+  // a hosted sphere's f_S - m_S c moves to its host as a force and its
+  // moment r x (f_S - m_S c).
+  std::vector<Eigen::Matrix<double, 6, 6>> mass(n);
+  Eigen::VectorXd fr(hc.size);
+  for (int i = 0; i < n; ++i) {
+    if (hc.host[i] >= 0) continue;
+    const int w = m.linker[i] ? 6 : 3;
+    mass[i].setZero();
+    mass[i].topLeftCorner<3, 3>() = m.mass[i] * Mat3::Identity();
+    if (m.linker[i]) mass[i].bottomRightCorner<3, 3>() = m.inertia[i];
+    fr.segment(hc.offset[i], w) = f.segment(m.layout.offset[i], w);
+  }
+  for (int i = 0; i < n; ++i) {
+    if (hc.host[i] < 0) continue;
+    const double mi = m.mass[i];
+    const Mat3 rx = cross_matrix(hc.arm[i]);
+    Eigen::Matrix<double, 6, 6>& mh = mass[hc.host[i]];
+    mh.topLeftCorner<3, 3>() += mi * Mat3::Identity();
+    mh.topRightCorner<3, 3>() -= mi * rx;
+    mh.bottomLeftCorner<3, 3>() += mi * rx;
+    mh.bottomRightCorner<3, 3>() -= mi * rx * rx;
+    const Vec3 e = f.segment<3>(m.layout.offset[i]) - mi * hc.c[i];
+    fr.segment<3>(hc.offset[i]) += e;
+    fr.segment<3>(hc.offset[i] + 3) += hc.arm[i].cross(e);
+  }
+  InverseMassBlocks minv;
+  minv.offset.reserve(n);
+  minv.width.reserve(n);
+  minv.inv.reserve(n);
+  for (int i = 0; i < n; ++i) {
+    if (hc.host[i] >= 0) continue;
+    minv.add(m.linker[i] ? 6 : 3, inverse_rigid_mass(mass[i]));
+  }
+
+  Eigen::MatrixXd g;
+  Eigen::VectorXd bias;
+  hosted_joint_rows(bodies, hc, joints, g, bias);
+  const MultiplierSolve solve(g, minv);
+  Eigen::VectorXd rhs = -bias;
+  rhs.noalias() -= g * minv.times(fr);
+  Eigen::VectorXd load = fr;
+  load.noalias() += g.transpose() * solve.solve(rhs);
+  const Eigen::VectorXd acc = minv.times(load);
+
+  // Back to every body: the loads that give these accelerations, M nu' - f
+  // (a linker's torque I omega' + omega x I omega, so that dL/dt is right).
+  for (int i = 0; i < n; ++i) {
+    const int o = m.layout.offset[i], r = hc.offset[i];
+    if (hc.host[i] >= 0) {
+      const Vec3 a = acc.segment<3>(r) + Vec3(acc.segment<3>(r + 3)).cross(hc.arm[i]) + hc.c[i];
+      force[i] += m.mass[i] * a - f.segment<3>(o);
+      continue;
+    }
+    force[i] += m.mass[i] * acc.segment<3>(r) - f.segment<3>(o);
+    if (m.linker[i]) torque[i] += m.inertia[i] * acc.segment<3>(r + 3) - f.segment<3>(o + 3);
+  }
 }
 
 void cluster_loads(const CompliantCluster& cluster, const JointSet& joints, std::vector<Vec3>& force,

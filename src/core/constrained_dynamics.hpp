@@ -47,6 +47,18 @@ namespace ringsim {
 constexpr double kRankThreshold = 1e-7;
 constexpr double kZeroRow = 1e-16;
 
+// M^-1 of a multiplier problem as diagonal blocks, one per body of the
+// problem: width 3 (a point mass) or 6 (a rigid body: v then omega; a
+// linker, or a linker carrying the spheres it hosts, whose block is dense).
+struct InverseMassBlocks {
+  std::vector<int> offset, width;
+  std::vector<Eigen::Matrix<double, 6, 6>> inv;  // the top-left width x width is used
+  int size = 0;
+
+  void add(int width, const Eigen::Matrix<double, 6, 6>& inverse);
+  Eigen::VectorXd times(const Eigen::VectorXd& f) const;
+};
+
 // Block-diagonal mass matrix in the velocity layout (world frame, present pose).
 struct MassMatrix {
   VelocityLayout layout;
@@ -59,6 +71,7 @@ struct MassMatrix {
   Eigen::VectorXd inverse_times(const Eigen::VectorXd& f) const;    // M^-1 f
   Eigen::MatrixXd inverse_times(const Eigen::MatrixXd& f) const;    // M^-1 F (column by column)
   Eigen::MatrixXd dense() const;
+  InverseMassBlocks inverse_blocks() const;  // 1/m (spheres), diag(1/m, I^-1) (linkers)
 };
 
 // S = G M^-1 G^T factorized once, solved for any right-hand side.
@@ -75,6 +88,7 @@ struct MassMatrix {
 class MultiplierSolve {
  public:
   MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m, bool rank_revealing = false);
+  MultiplierSolve(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, bool rank_revealing = false);
   Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;  // minimum-norm lambda of S lambda = rhs
   int rank() const { return rows_ == 0 ? 0 : full_ ? rows_ : int(cod_.rank()); }
   const Eigen::MatrixXd& minv_gt() const { return minv_gt_; }  // M^-1 G^T
@@ -86,7 +100,8 @@ class MultiplierSolve {
   Eigen::VectorXd row_sines2(int first = 0) const;
 
  private:
-  void assemble(const Eigen::MatrixXd& g, const MassMatrix& m);  // minv_gt_ and s_
+  void assemble(const Eigen::MatrixXd& g, const InverseMassBlocks& minv);  // minv_gt_ and s_
+  void factor(bool rank_revealing);
 
   int rows_;
   bool full_ = false;  // the LDL^T factors serve
@@ -103,9 +118,23 @@ Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, cons
 // The constraint loads of the joints at the present pose and velocities
 // (added to force and torque: torque about each body's centre, world frame),
 // given the applied force and torque on every body: after the addition, the
-// accelerations M^-1 (f + G^T lambda) keep C'' = 0. Returns lambda.
-Eigen::VectorXd add_constraint_loads(const std::vector<CompliantBody>& bodies, const JointSet& joints,
-                                     std::vector<Vec3>& force, std::vector<Vec3>& torque);
+// accelerations M^-1 (f + G^T lambda) keep C'' = 0.
+//
+// Solved on the cluster's rigid sub-assemblies (docs/ARTICULATED.md,
+// "Spheres ride on their hosts"): a sphere is a point mass, so its first ball
+// joint fixes it in that linker's frame (its host), and the pair moves as one
+// rigid body. The multiplier problem is written for the linkers, each
+// carrying its hosted spheres (a dense 6 x 6 mass block about the linker's
+// centre), and the spheres that have no joint; the host joints' rows drop
+// out (3 rows per bonded sphere: half the rows of a chain). With nu = T nu_r
+// + c (a hosted sphere's acceleration is its host's at the joint point,
+// a_S = a_L + alpha_L x r + omega_L x (omega_L x r), r = R(q_L) a, exactly
+// what the host row's C'' = 0 says), M_r = T^T M T, f_r = T^T (f - M c),
+// G_r = G T and the bias b + G c: the accelerations are those of the full
+// problem (unique whenever the rows are consistent) at any state, on the
+// joints or off them, to rounding.
+void add_constraint_loads(const std::vector<CompliantBody>& bodies, const JointSet& joints,
+                          std::vector<Vec3>& force, std::vector<Vec3>& torque);
 
 // Every load on the bodies of a cluster at its present state: the compliant
 // force field (core/compliant.hpp, dampers included) plus the constraint

@@ -174,23 +174,56 @@ Eigen::VectorXd joint_residual(const std::vector<CompliantBody>& bodies, const J
   return c;
 }
 
-void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
-                JointRows& out) {
-  const int m = joints.rows();
-  out.c = joint_residual(bodies, joints);
-  out.g.setZero(m, layout.size);
-  out.bias.setZero(m);
+HostedColumns::HostedColumns(const std::vector<CompliantBody>& bodies, const JointSet& joints)
+    : offset(bodies.size(), -1), host(bodies.size(), -1), arm(bodies.size()), c(bodies.size()),
+      host_ball(joints.balls.size(), 0), rows(joints.rows()) {
+  for (std::size_t k = 0; k < joints.balls.size(); ++k) {
+    const BallJoint& j = joints.balls[k];
+    if (host[j.sphere] >= 0) continue;
+    const CompliantBody& l = bodies[j.linker];
+    host[j.sphere] = j.linker;
+    arm[j.sphere] = l.q * j.anchor;
+    c[j.sphere] = l.omega.cross(l.omega.cross(arm[j.sphere]));
+    host_ball[k] = 1;
+    rows -= 3;
+  }
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    if (host[i] >= 0) continue;
+    offset[i] = size;
+    size += VelocityLayout::width(bodies[i].shape);
+  }
+  for (std::size_t i = 0; i < bodies.size(); ++i)
+    if (host[i] >= 0) offset[i] = offset[host[i]];
+}
+
+namespace {
+
+// G and the bias (dG/dt) nu on the columns `offset` (per body), the rows of
+// the host joints left out; a hosted sphere's point velocity is its host's
+// at the joint point (HostedColumns). `hosted` null: every body has its
+// own columns and every row is written.
+void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>& offset,
+                const HostedColumns* hosted, const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias) {
   int row = 0;
 
   // Ball joint: C' = v_S - v_L - omega_L x r = v_S - v_L + [r]x omega_L,
-  // r = R a; (dG/dt) nu = [r']x omega_L = (omega_L x r) x omega_L.
-  for (const BallJoint& j : joints.balls) {
+  // r = R a; (dG/dt) nu = [r']x omega_L = (omega_L x r) x omega_L. A hosted
+  // sphere: v_S = v_H - [arm]x omega_H, and its acceleration at zero host
+  // acceleration, c, joins the bias.
+  for (std::size_t k = 0; k < joints.balls.size(); ++k) {
+    if (hosted && hosted->host_ball[k]) continue;
+    const BallJoint& j = joints.balls[k];
     const CompliantBody& l = bodies[j.linker];
     const Vec3 r = l.q * j.anchor;
-    out.g.block<3, 3>(row, layout.offset[j.sphere]) += Mat3::Identity();
-    out.g.block<3, 3>(row, layout.offset[j.linker]) -= Mat3::Identity();
-    out.g.block<3, 3>(row, layout.offset[j.linker] + 3) += cross_matrix(r);
-    out.bias.segment<3>(row) = -l.omega.cross(l.omega.cross(r));
+    const int os = offset[j.sphere];
+    g.block<3, 3>(row, os) += Mat3::Identity();
+    bias.segment<3>(row) = -l.omega.cross(l.omega.cross(r));
+    if (hosted && hosted->host[j.sphere] >= 0) {
+      g.block<3, 3>(row, os + 3) -= cross_matrix(hosted->arm[j.sphere]);
+      bias.segment<3>(row) += hosted->c[j.sphere];
+    }
+    g.block<3, 3>(row, offset[j.linker]) -= Mat3::Identity();
+    g.block<3, 3>(row, offset[j.linker] + 3) += cross_matrix(r);
     row += 3;
   }
 
@@ -202,10 +235,10 @@ void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& 
     const Vec3 na = outward(la, a.end_a), nb = outward(lb, a.end_b);
     const double s0 = std::sin(a.theta0);
     const Vec3 c = na.cross(nb);
-    out.g.block<1, 3>(row, layout.offset[a.linker_a] + 3) -= c.transpose() / s0;
-    out.g.block<1, 3>(row, layout.offset[a.linker_b] + 3) += c.transpose() / s0;
+    g.block<1, 3>(row, offset[a.linker_a] + 3) -= c.transpose() / s0;
+    g.block<1, 3>(row, offset[a.linker_b] + 3) += c.transpose() / s0;
     const Vec3 dc = la.omega.cross(na).cross(nb) + na.cross(lb.omega.cross(nb));
-    out.bias[row] = -dc.dot(la.omega - lb.omega) / s0;
+    bias[row] = -dc.dot(la.omega - lb.omega) / s0;
     ++row;
   }
 
@@ -228,9 +261,9 @@ void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& 
     const Vec3 ga_m = u.cross(n0.cross(n1)), ga_0 = n0.cross(n1.cross(u)), ga_1 = n1.cross(u.cross(n0));
     const Vec3 gb_0 = n0.cross(n1) - c1 * n0.cross(u), gb_1 = n1.cross(n0) - c0 * n1.cross(u);
     const Vec3 gb_m = -(c1 * u.cross(n0) + c0 * u.cross(n1));
-    out.g.block<1, 3>(row, layout.offset[d.linker] + 3) += (cp * ga_m - sp * gb_m).transpose();
-    out.g.block<1, 3>(row, layout.offset[d.nb0] + 3) += (cp * ga_0 - sp * gb_0).transpose();
-    out.g.block<1, 3>(row, layout.offset[d.nb1] + 3) += (cp * ga_1 - sp * gb_1).transpose();
+    g.block<1, 3>(row, offset[d.linker] + 3) += (cp * ga_m - sp * gb_m).transpose();
+    g.block<1, 3>(row, offset[d.nb0] + 3) += (cp * ga_0 - sp * gb_0).transpose();
+    g.block<1, 3>(row, offset[d.nb1] + 3) += (cp * ga_1 - sp * gb_1).transpose();
 
     const Vec3 du = lm.omega.cross(u), dn0 = l0.omega.cross(n0), dn1 = l1.omega.cross(n1);
     const Vec3 ddu = lm.omega.cross(du), ddn0 = l0.omega.cross(dn0), ddn1 = l1.omega.cross(dn1);
@@ -240,9 +273,26 @@ void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& 
     const double ddc0 = ddu.dot(n0) + 2.0 * du.dot(dn0) + u.dot(ddn0);
     const double ddc1 = ddu.dot(n1) + 2.0 * du.dot(dn1) + u.dot(ddn1);
     const double ddb = ddn0.dot(n1) + 2.0 * dn0.dot(dn1) + n0.dot(ddn1) - (ddc0 * c1 + 2.0 * dc0 * dc1 + c0 * ddc1);
-    out.bias[row] = cp * dda - sp * ddb;
+    bias[row] = cp * dda - sp * ddb;
     ++row;
   }
+}
+
+}  // namespace
+
+void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
+                JointRows& out) {
+  out.c = joint_residual(bodies, joints);
+  out.g.setZero(joints.rows(), layout.size);
+  out.bias.setZero(joints.rows());
+  write_rows(bodies, layout.offset, nullptr, joints, out.g, out.bias);
+}
+
+void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedColumns& columns,
+                       const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias) {
+  g.setZero(columns.rows, columns.size);
+  bias.setZero(columns.rows);
+  write_rows(bodies, columns.offset, &columns, joints, g, bias);
 }
 
 }  // namespace ringsim

@@ -158,4 +158,28 @@ struct JointRows {
 void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
                 JointRows& out);
 
+// The columns of a multiplier problem in which each bonded sphere rides on
+// its host, the linker of its first ball joint (core/constrained_dynamics.hpp,
+// add_constraint_loads): a sphere is a point mass, so that joint fixes it in
+// the host's frame and the pair moves rigidly. A hosted sphere has no columns
+// of its own: its velocity is its host's at the joint point, v_S = v_H +
+// omega_H x arm (arm = R(q_H) a), and its acceleration a_H + alpha_H x arm +
+// c with c = omega_H x (omega_H x arm), exactly what the host joint's
+// C'' = 0 says; a row's block on v_S goes to the host's columns and its c to
+// the bias. The host joints have no rows (3 rows fewer per bonded sphere).
+struct HostedColumns {
+  std::vector<int> offset;      // per body: its first column (a hosted sphere: its host's)
+  std::vector<int> host;        // per body: the host of a hosted sphere, -1 otherwise
+  std::vector<Vec3> arm, c;     // per hosted sphere
+  std::vector<char> host_ball;  // per ball joint: 1 when it is its sphere's host joint
+  int size = 0;                 // columns: 6 per linker, 3 per sphere without a joint
+  int rows = 0;                 // the joints' rows less the host joints'
+
+  HostedColumns(const std::vector<CompliantBody>& bodies, const JointSet& joints);
+};
+// G and the bias (dG/dt) nu on those columns, in joint_rows' row order
+// without the host joints' rows (no residual: the right-hand side needs none).
+void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedColumns& columns,
+                       const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias);
+
 }  // namespace ringsim

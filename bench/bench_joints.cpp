@@ -1,0 +1,68 @@
+// The articulated clusters' right-hand side: the constraint loads of an open
+// chain of m corners (tests/articulated_chain.hpp; random velocities), as
+// add_constraint_loads solves them (each sphere riding on its host linker,
+// core/constrained_dynamics.hpp), against the same loads from the problem in
+// maximal coordinates (every body its own columns, every ball joint three
+// rows: the solve the right-hand side made before the hosted one).
+// Arguments: m, then 0 = ball joints only (Scenario 1), 1 = held angles and
+// dihedrals too (Scenario 4). docs/ARTICULATED.md, "Cost".
+//   bench_joints --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+
+#include <benchmark/benchmark.h>
+
+#include <vector>
+
+#include "articulated_chain.hpp"
+#include "core/constrained_dynamics.hpp"
+
+using namespace ringsim;
+
+namespace {
+
+test::Articulated chain(const benchmark::State& state) {
+  const bool held = state.range(1) != 0;
+  test::Articulated a = test::open_chain(int(state.range(0)), 0.2, held, held);
+  test::jitter_velocities(a.cluster, 0.5, 0.8, 3);
+  return a;
+}
+
+void BM_ConstraintLoadsHosted(benchmark::State& state) {
+  const test::Articulated a = chain(state);
+  const std::size_t n = a.cluster.bodies.size();
+  for (auto _ : state) {
+    std::vector<Vec3> f(n, Vec3::Zero()), tau(n, Vec3::Zero());
+    add_constraint_loads(a.cluster.bodies, a.joints, f, tau);
+    benchmark::DoNotOptimize(f.data());
+  }
+  state.counters["rows"] = HostedColumns(a.cluster.bodies, a.joints).rows;
+}
+
+void BM_ConstraintLoadsMaximal(benchmark::State& state) {
+  const test::Articulated a = chain(state);
+  const std::vector<CompliantBody>& b = a.cluster.bodies;
+  const std::size_t n = b.size();
+  for (auto _ : state) {
+    std::vector<Vec3> f(n, Vec3::Zero()), tau(n, Vec3::Zero());
+    const MassMatrix m(b);
+    JointRows rows;
+    joint_rows(b, m.layout, a.joints, rows);
+    const MultiplierSolve solve(rows.g, m);
+    const Eigen::VectorXd fg = generalized_force(b, m, f, tau);
+    Eigen::VectorXd rhs = -rows.bias;
+    rhs.noalias() -= rows.g * m.inverse_times(fg);
+    const Eigen::VectorXd load = rows.g.transpose() * solve.solve(rhs);
+    benchmark::DoNotOptimize(load.data());
+  }
+  state.counters["rows"] = a.joints.rows();
+}
+
+void chains(benchmark::internal::Benchmark* b) {
+  for (const int held : {0, 1})
+    for (const int m : {2, 4, 8, 16, 32}) b->Args({m, held});
+}
+
+}  // namespace
+
+BENCHMARK(BM_ConstraintLoadsHosted)->Apply(chains);
+BENCHMARK(BM_ConstraintLoadsMaximal)->Apply(chains);
+BENCHMARK_MAIN();
