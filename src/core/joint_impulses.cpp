@@ -19,34 +19,35 @@ Eigen::MatrixXd point_velocity_rows(const std::vector<CompliantBody>& bodies, co
   return c;
 }
 
-Eigen::MatrixXd constrained_inverse_mass(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+Mat3 collision_matrix(const std::vector<CompliantBody>& bodies, const JointSet& joints, const Eigen::MatrixXd& c) {
   const MassMatrix m(bodies);
-  const Eigen::MatrixXd minv = m.inverse_times(Eigen::MatrixXd(Eigen::MatrixXd::Identity(m.layout.size, m.layout.size)));
-  if (joints.empty()) return minv;
-  JointRows rows;
-  joint_rows(bodies, m.layout, joints, rows);
-  const MultiplierSolve solve(rows.g, m);
-  // M^-1 G^T S^+ G M^-1 = B S^+ B^T with B = M^-1 G^T.
-  const Eigen::MatrixXd& b = solve.minv_gt();
-  Eigen::MatrixXd sb(b.cols(), b.rows());
-  const Eigen::MatrixXd bt = b.transpose();
-  for (int k = 0; k < bt.cols(); ++k) sb.col(k) = solve.solve(bt.col(k));
-  Eigen::MatrixXd w = minv - b * sb;
-  return 0.5 * (w + w.transpose());  // symmetric to round-off
+  const Eigen::MatrixXd minv_ct = m.inverse_times(Eigen::MatrixXd(c.transpose()));  // M^-1 C^T
+  Mat3 k = c * minv_ct;
+  if (!joints.empty()) {
+    // C M^-1 G^T S^+ G M^-1 C^T = B^T S^+ B with B = G M^-1 C^T: three
+    // solves, not W's n.
+    JointRows rows;
+    joint_rows(bodies, m.layout, joints, rows);
+    const MultiplierSolve solve(rows.g, m);
+    const Eigen::MatrixXd b = rows.g * minv_ct;
+    Eigen::MatrixXd sb(b.rows(), 3);
+    for (int col = 0; col < 3; ++col) sb.col(col) = solve.solve(b.col(col));
+    k -= b.transpose() * sb;
+  }
+  return 0.5 * (k + k.transpose());  // symmetric to round-off
 }
 
 Mat3 collision_matrix(const std::vector<CompliantBody>& bodies, const JointSet& joints, int body, const Vec3& arm) {
   const VelocityLayout layout(bodies);
-  const Eigen::MatrixXd c = point_velocity_rows(bodies, layout, body, arm);
-  return c * constrained_inverse_mass(bodies, joints) * c.transpose();
+  return collision_matrix(bodies, joints, point_velocity_rows(bodies, layout, body, arm));
 }
 
 Mat3 collision_matrix(const std::vector<CompliantBody>& bodies, const JointSet& joints, int body_a,
                       const Vec3& arm_a, int body_b, const Vec3& arm_b) {
   const VelocityLayout layout(bodies);
-  const Eigen::MatrixXd c =
-      point_velocity_rows(bodies, layout, body_b, arm_b) - point_velocity_rows(bodies, layout, body_a, arm_a);
-  return c * constrained_inverse_mass(bodies, joints) * c.transpose();
+  return collision_matrix(bodies, joints,
+                          point_velocity_rows(bodies, layout, body_b, arm_b) -
+                              point_velocity_rows(bodies, layout, body_a, arm_a));
 }
 
 void apply_impulse(std::vector<CompliantBody>& bodies, const JointSet& joints, const Eigen::MatrixXd& c,

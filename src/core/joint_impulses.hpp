@@ -26,12 +26,13 @@ namespace ringsim {
 Eigen::MatrixXd point_velocity_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, int body,
                                     const Vec3& arm);
 
-// W = M^-1 - M^-1 G^T S^+ G M^-1 at the present pose (n x n, symmetric).
-Eigen::MatrixXd constrained_inverse_mass(const std::vector<CompliantBody>& bodies, const JointSet& joints);
-
-// Collision matrix K = C W C^T of a point of one body (contact with another
-// cluster or a wall), and of the relative velocity between points of two
-// bodies of the same cluster (u = v_B(point) - v_A(point)).
+// Collision matrix K = C W C^T (3 x 3, symmetric) for the rows c (3 x n)
+// at the present pose, computed as C M^-1 C^T - B^T S^+ B with
+// B = G M^-1 C^T (W itself is never formed: three solves instead of n).
+Mat3 collision_matrix(const std::vector<CompliantBody>& bodies, const JointSet& joints, const Eigen::MatrixXd& c);
+// K of a point of one body (contact with another cluster or a wall), and of
+// the relative velocity between points of two bodies of the same cluster
+// (u = v_B(point) - v_A(point)).
 Mat3 collision_matrix(const std::vector<CompliantBody>& bodies, const JointSet& joints, int body, const Vec3& arm);
 Mat3 collision_matrix(const std::vector<CompliantBody>& bodies, const JointSet& joints, int body_a,
                       const Vec3& arm_a, int body_b, const Vec3& arm_b);
