@@ -75,10 +75,8 @@ PositionProjection project_positions(std::vector<CompliantBody>& bodies, const J
   double moved2 = 0.0, last_moved2 = 0.0;
   std::vector<CompliantBody> last;  // before the latest step
   for (;;) {
-    const MassMatrix m(bodies);
-    JointRows rows;
-    joint_rows(bodies, m.layout, joints, rows);
-    const double res = max_abs(rows.c);
+    const Eigen::VectorXd c = joint_residual(bodies, joints);
+    const double res = max_abs(c);
     if (r.iterations == 0) r.residual_before = res;
     // Stop at the tolerance, or when a step no longer halves the residual:
     // at a singular pose (a ring whose redundant rows lose rank, e.g. two
@@ -96,8 +94,11 @@ PositionProjection project_positions(std::vector<CompliantBody>& bodies, const J
     }
     r.residual_after = res;
     if (res <= tolerance || r.iterations >= max_iterations) break;
+    const MassMatrix m(bodies);
+    JointRows rows;
+    joint_rows(bodies, m.layout, joints, rows);
     const MultiplierSolve solve(rows.g, m);
-    const Eigen::VectorXd dnu = -solve.minv_gt() * solve.solve(rows.c);
+    const Eigen::VectorXd dnu = -solve.minv_gt() * solve.solve(c);
     last = bodies;
     last_moved2 = moved2;
     displace(bodies, m.layout, dnu);
