@@ -99,16 +99,21 @@ class HeldDihedralConstraint : public HeldRowConstraint {
     j0 = to_bt(g0);
     j1 = to_bt(g1);
   }
+  // Neighbours at least this sine off M's axis: phi is measured there to
+  // |C| / (|u x n0| |u x n1|) <= 25 |C|.
+  static constexpr double kMeasurableSine = 0.2;
   // How far phi is from the row's zero set, phi0 or phi0 + pi (radians, in
-  // [0, pi/2]); the cis/trans flip a neighbour swinging through M's axis
-  // makes stays on it (core/joints.hpp). 0 where phi is undefined.
+  // [0, pi/2]; the cis/trans flip a neighbour swinging through M's axis
+  // makes stays on it, core/joints.hpp), where both neighbours are
+  // kMeasurableSine off M's axis; elsewhere phi is ill measured or
+  // undefined, and this is 0 (|C| still says how well the row holds).
   double dihedral_error() const {
     Vec3 u, n0, n1;
     axes(u, n0, n1);
     const Vec3 a = u.cross(n0), b = u.cross(n1);
+    if (std::min(a.norm(), b.norm()) < kMeasurableSine) return 0.0;
     const double phi = std::atan2(u.dot(a.cross(b)), a.dot(b));
-    const double d = std::remainder(phi - phi0_, M_PI);
-    return std::isfinite(d) ? std::abs(d) : 0.0;
+    return std::abs(std::remainder(phi - phi0_, M_PI));
   }
 
   // Tests only: leave body k (0 = M, 1 = nb0, 2 = nb1) out of the torques the

@@ -202,8 +202,9 @@ ChainRun chain(bool held, int drop, double offset_deg, bool moving, bool isotrop
     run.nearest_axis = std::min(run.nearest_axis, std::min(sa, sb));
     run.worst_c = std::max(run.worst_c, std::abs(row.residual()));
     // phi is measured to |C| / (|u x n0| |u x n1|): near a neighbour along
-    // M's axis it is undefined, and there it may flip to phi0 + pi.
-    if (std::min(sa, sb) >= 0.2) run.worst_deg = std::max(run.worst_deg, row.dihedral_error() * 180 / M_PI);
+    // M's axis it is undefined, and there it may flip to phi0 + pi
+    // (dihedral_error is 0 there).
+    run.worst_deg = std::max(run.worst_deg, row.dihedral_error() * 180 / M_PI);
     run.angle_moved_deg = std::max(run.angle_moved_deg, std::abs(bond_angle() - theta_start));
     Vec3 p, l;
     double ps, ls;
