@@ -39,10 +39,10 @@
 // (btContactSolverInfo::m_numIterations); it is not a post-solve split.
 //
 // Which bodies: a HeldDihedralConstraint is a btTypedConstraint between the
-// two neighbours with no row of its own (getInfo1: 0 rows). Added to the
-// world it puts its three linkers into one simulation island (they are also
-// joined through the ball joints) and reaches the solver in the island's
-// constraint list, where HeldDihedralSolver picks it up by its tag.
+// two neighbours with no row of its own (getInfo1: 0 rows). The ball joints
+// put the three linkers and their two spheres in one simulation island;
+// the constraint reaches the solver in that island's constraint list, where
+// HeldDihedralSolver picks it up by its tag.
 #include <algorithm>
 #include <cmath>
 #include <vector>

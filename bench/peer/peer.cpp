@@ -815,11 +815,16 @@ nlohmann::json Peer::run() {
   peer["bond_constraints"] = held_.size();
   // Constraints by kind: fixed (welded bonds), ball (articulated bonds),
   // held_angle (articulated, angle filter on), held_dihedral (articulated,
-  // coplanarity filter on).
+  // coplanarity filter on; of which held_dihedral_one_neighbour have one
+  // linker as both neighbours, a ring of two spheres, and are identically
+  // zero: held_dihedral.hpp).
+  long one_neighbour = 0;
+  for (const auto& hd : dihedrals_) one_neighbour += &hd->neighbour0() == &hd->neighbour1();
   peer["constraints"] = {{"fixed", articulated() ? 0 : held_.size()},
                          {"ball", articulated() ? held_.size() : 0},
                          {"held_angle", angles_.size()},
-                         {"held_dihedral", dihedrals_.size()}};
+                         {"held_dihedral", dihedrals_.size()},
+                         {"held_dihedral_one_neighbour", one_neighbour}};
   peer["max_bond_drift"] = max_bond_drift_;
   peer["max_bond_angle_drift_deg"] = max_bond_angle_deg_;
   // Held dihedrals: the largest |phi - phi0| (to the row's zero set, phi0 or
