@@ -2,8 +2,8 @@
 # The Bullet peer (bench/peer, docs/PEER.md) at tiny size: it starts from
 # ringsim's scene (same packing and mixing for the same seed), prints the
 # fields of `ringsim replicate --json`, keeps an elastic gas's energy at a
-# small step, forms welded and articulated bonds, and refuses what it does
-# not model.
+# small step, forms welded and articulated bonds (Scenario 4's filters
+# included: held angles and dihedrals), and refuses what it does not model.
 # Usage: peer_smoke.sh RINGSIM_PEER RINGSIM
 set -uo pipefail
 PEER=$1
@@ -23,6 +23,12 @@ small=(--seed 3 --set init.spheres=30 --set init.linkers=30 --set geometry.box_l
 "$PEER" "${small[@]}" --set bonding.capture_distance=0.5 --set bonding.angle_filter=false \
   --set bonding.coplanarity_filter=false --set run.t_max=20 --dt 0.01 --set bonding.joint=articulated > "$tmp/art.json" ||
   fail "articulated bonding run exited $?"
+# Scenario 4 articulated (both filters: held angles and dihedrals), its
+# windows widened from 5 to 20 degrees so that a run this small holds some
+# dihedrals (this seed: 1 by t = 30, in about a second).
+"$PEER" "$(dirname "$0")/../jobs/scenarios/4-passive-selection.toml" "${small[@]}" --set bonding.capture_distance=0.5 \
+  --set bonding.dtheta_deg=20 --set bonding.dphi_deg=20 --set run.t_max=30 --dt 0.01 --set bonding.joint=articulated \
+  > "$tmp/s4.json" || fail "Scenario 4 articulated run exited $?"
 
 /usr/bin/python3 - "$tmp" <<'PY' || exit 1
 import json, sys
@@ -31,6 +37,7 @@ gas = json.load(open(f"{d}/gas.json"))
 ref = json.load(open(f"{d}/gas_ref.json"))
 bond = json.load(open(f"{d}/bond.json"))
 art = json.load(open(f"{d}/art.json"))
+s4 = json.load(open(f"{d}/s4.json"))
 def check(ok, what):
     if not ok:
         print("FAIL:", what, file=sys.stderr)
@@ -64,17 +71,22 @@ check(art["N_t"] == 60 - art["bonds"] + art["N_cyc"] + sum(v for m, v in art["ri
 for f in ["non_finite", "escaped"]:
     check(ap["failures"][f]["count"] == 0, f"articulated run recorded {f}: {ap['failures'][f]}")
 check(ap["failures"]["drift_capture"]["count"] == 0, "articulated run recorded a drift_capture")
+# Scenario 4 articulated: held angles and dihedrals, the dihedrals held.
+sp = s4["peer"]
+check(s4["termination"] == "t_max", f"Scenario 4 articulated run ended {s4['termination']}")
+check(sp["constraints"]["ball"] == s4["bonds"] and sp["constraints"]["held_angle"] > 0 and
+      sp["constraints"]["held_dihedral"] > 0, f"Scenario 4 articulated constraints {sp['constraints']}")
+check(s4["N_t"] == 60 - s4["bonds"] + s4["N_cyc"] + sum(v for m, v in s4["rings"].items() if int(m) < 3),
+      "Scenario 4 articulated N_t does not match the bonds")
+check(0 < sp["max_dihedral_drift_deg"] < 0.5 and sp["max_dihedral_residual"] < 0.01,
+      f"held dihedrals drifted {sp['max_dihedral_drift_deg']} deg, |C| {sp['max_dihedral_residual']}")
+check(sp["skipped_dihedral_rows"] == 0, f"{sp['skipped_dihedral_rows']} dihedral rows skipped by the solver")
+for f in ["non_finite", "escaped", "joint_drift", "drift_capture"]:
+    check(sp["failures"][f]["count"] == 0, f"Scenario 4 articulated run recorded {f}: {sp['failures'][f]}")
 PY
 
 "$PEER" "${small[@]}" --set bonding.joint=hinged --set run.t_max=1 > /dev/null 2>&1
 [ $? = 1 ] || fail "an unknown joint reading is not refused"
-# The held dihedral couples three linkers: no Bullet constraint row expresses it.
-"$PEER" "${small[@]}" --set bonding.joint=articulated --set bonding.coplanarity_filter=true --set run.t_max=1 \
-  > /dev/null 2> "$tmp/dihedral.err"
-code=$?
-[ $code != 0 ] || fail "articulated bonds with the coplanarity filter are not refused"
-grep -q "bonding.coplanarity_filter" "$tmp/dihedral.err" ||
-  fail "the refusal of the held dihedral does not name bonding.coplanarity_filter: $(cat "$tmp/dihedral.err")"
 "$PEER" "${small[@]}" --set geometry.boundary=periodic --set run.t_max=1 > /dev/null 2>&1
 [ $? = 1 ] || fail "a periodic box is not refused"
 echo "peer smoke test passed"

@@ -16,15 +16,17 @@
 
 #include <btBulletDynamicsCommon.h>
 
+#include "held_row.hpp"
+
 namespace ringsim::peer {
 
-class HeldAngleConstraint : public btTypedConstraint {
+class HeldAngleConstraint : public HeldRowConstraint {
  public:
   // Holds the present angle between the outward axes of (a, end_a) and
   // (b, end_b). The caller keeps theta0 away from 0 and 180 degrees (the
   // row's gradient |n_A x n_B| / sin theta0 vanishes there).
   HeldAngleConstraint(btRigidBody& a, int end_a, btRigidBody& b, int end_b)
-      : btTypedConstraint(MAX_CONSTRAINT_TYPE, a, b), end_a_(end_a), end_b_(end_b) {
+      : HeldRowConstraint(a, b), end_a_(end_a), end_b_(end_b) {
     const btScalar cos0 = std::clamp(outward(m_rbA, end_a_).dot(outward(m_rbB, end_b_)), btScalar(-1), btScalar(1));
     theta0_ = std::acos(cos0);
     cos0_ = cos0;
@@ -70,18 +72,6 @@ class HeldAngleConstraint : public btTypedConstraint {
     info->m_constraintError[0] = info->fps * info->erp * -residual();
     info->m_lowerLimit[0] = -SIMD_INFINITY;
     info->m_upperLimit[0] = SIMD_INFINITY;
-  }
-
-  // No per-constraint ERP or CFM: the solver's global values apply.
-  void setParam(int num, btScalar value, int axis = -1) override {
-    (void)num;
-    (void)value;
-    (void)axis;
-  }
-  btScalar getParam(int num, int axis = -1) const override {
-    (void)num;
-    (void)axis;
-    return 0;
   }
 
  private:

@@ -15,44 +15,12 @@
 #include <btBulletDynamicsCommon.h>
 
 #include "held_angle.hpp"
+#include "test_support.hpp"
 
 namespace {
 
 using ringsim::peer::HeldAngleConstraint;
-
-int failures = 0;
-void check(bool ok, const char* what, double value) {
-  std::printf("%s %s: %.3g\n", ok ? "ok  " : "FAIL", what, value);
-  if (!ok) ++failures;
-}
-
-btQuaternion random_rotation(std::mt19937_64& rng) {
-  std::normal_distribution<double> g;
-  btQuaternion q(btScalar(g(rng)), btScalar(g(rng)), btScalar(g(rng)), btScalar(g(rng)));
-  return q.normalized();
-}
-
-btVector3 random_vector(std::mt19937_64& rng) {
-  std::normal_distribution<double> g;
-  return btVector3(btScalar(g(rng)), btScalar(g(rng)), btScalar(g(rng)));
-}
-
-std::unique_ptr<btRigidBody> linker(btCollisionShape* shape, const btVector3& x, const btQuaternion& q) {
-  btRigidBody::btRigidBodyConstructionInfo ci(1, nullptr, shape, btVector3(btScalar(0.35), btScalar(0.35), btScalar(0.1)));
-  ci.m_startWorldTransform = btTransform(q, x);
-  auto b = std::make_unique<btRigidBody>(ci);
-  b->setActivationState(DISABLE_DEACTIVATION);
-  return b;
-}
-
-// The world rotation exp(w) applied to a body's orientation.
-void turn(btRigidBody& b, const btQuaternion& q0, const btVector3& w) {
-  btTransform t = b.getWorldTransform();
-  const btScalar a = w.length();
-  t.setRotation(a > 0 ? btQuaternion(w / a, a) * q0 : q0);
-  b.setWorldTransform(t);
-  b.setCenterOfMassTransform(t);
-}
+using namespace ringsim::peer::test;
 
 void jacobian_check() {
   std::mt19937_64 rng(7);
@@ -91,25 +59,18 @@ void jacobian_check() {
 // units at dt = 0.01. Returns the largest |theta - theta0| in degrees (and
 // the final one).
 double tumble(bool held, double offset_deg, bool spin, double* final_deg) {
-  btDefaultCollisionConfiguration config;
-  btCollisionDispatcher dispatcher(&config);
-  btDbvtBroadphase broadphase;
   btSequentialImpulseConstraintSolver solver;
-  btDiscreteDynamicsWorld world(&dispatcher, &broadphase, &solver, &config);
-  world.setGravity(btVector3(0, 0, 0));
-  btSphereShape ball(btScalar(0.5));
-  btCylinderShapeZ shape(btVector3(btScalar(0.25), btScalar(0.25), btScalar(1)));
+  TestWorld w(solver);
+  btDiscreteDynamicsWorld& world = w.world;
   // A along z below the sphere, B tilted 80 degrees from A's axis.
   const btVector3 xs(0, 0, 0);
   const btQuaternion qa(0, 0, 0, 1);
   const btQuaternion qb(btVector3(1, 0, 0), btScalar(80.0 * M_PI / 180.0));
-  auto a = linker(&shape, xs - btVector3(0, 0, btScalar(1.5)), qa);
+  auto a = linker(&w.rod, xs - btVector3(0, 0, btScalar(1.5)), qa);
   const btVector3 ub = btTransform(qb).getBasis().getColumn(2);
-  auto b = linker(&shape, xs + btScalar(1.5) * ub, qb);
-  btRigidBody::btRigidBodyConstructionInfo ci(btScalar(0.5), nullptr, &ball, btVector3(btScalar(0.05), btScalar(0.05), btScalar(0.05)));
-  ci.m_startWorldTransform = btTransform(btQuaternion(0, 0, 0, 1), xs);
-  btRigidBody s(ci);
-  s.setActivationState(DISABLE_DEACTIVATION);
+  auto b = linker(&w.rod, xs + btScalar(1.5) * ub, qb);
+  auto sp = sphere(&w.ball, xs);
+  btRigidBody& s = *sp;
   if (spin) {
     a->setAngularVelocity(btVector3(btScalar(0.3), btScalar(1.1), btScalar(-0.4)));
     b->setAngularVelocity(btVector3(btScalar(-0.9), btScalar(0.2), btScalar(0.7)));

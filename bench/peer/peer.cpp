@@ -19,6 +19,7 @@
 #include "core/body.hpp"
 #include "core/bond_graph.hpp"
 #include "core/bond_rules.hpp"
+#include "core/compliant.hpp"
 #include "core/contact.hpp"
 #include "core/joints.hpp"
 #include "core/motion.hpp"
@@ -27,6 +28,7 @@
 #include "core/vec.hpp"
 #include "ensemble/replicate_command.hpp"
 #include "held_angle.hpp"
+#include "held_dihedral.hpp"
 #include "ringsim/version.hpp"
 
 namespace ringsim::peer {
@@ -133,22 +135,20 @@ class Peer {
     if (p.compliant.enabled() && p.bonding.enabled)
       throw std::invalid_argument("the Bullet peer has rigid (welded or articulated) bonds only; compliant bonds are "
                                   "not modelled");
-    if (opt.joint == JointReading::Articulated && p.bonding.enabled && p.bonding.coplanarity_filter)
-      throw std::invalid_argument(
-          "bonding.coplanarity_filter = true with bonding.joint = articulated is not modelled in the peer: the held "
-          "dihedral couples three linkers (the central one and its two neighbours), and a Bullet constraint row "
-          "joins two bodies (docs/PEER.md); set bonding.coplanarity_filter = false or bonding.joint = welded");
     if (opt.joint == JointReading::Welded && p.bonding.enabled && p.bonding.exclusions == Exclusions::OneTwo)
       throw std::invalid_argument("bonding.exclusions = 1-2 needs bonding.joint = articulated (welded clusters never "
                                   "collide inside); use 1-3");
     store_.free_all();  // every body free: the capture gap reads kin (mirror())
     predictor_.set_capture_site(p.bonding.capture_site);
+    if (articulated())
+      for (int i = 0; i < n_; ++i) topology_.bodies.push_back(compliant_body_from(store_.kin[i], store_.sp(i)));
     build_world();
   }
 
   ~Peer() {
     g_graph = nullptr;
     g_articulated = false;
+    for (auto& hd : dihedrals_) world_->removeConstraint(hd.get());
     for (auto& ha : angles_) world_->removeConstraint(ha.constraint.get());
     for (auto& hb : held_) world_->removeConstraint(hb.constraint.get());
     for (auto& b : bodies_) world_->removeRigidBody(b.get());
@@ -174,9 +174,14 @@ class Peer {
   void captures(double t);
   bool rules_pass(int s, int l, int end, double t);
   void form_bond(int s, int l, int end, double t, bool closure);
+  // Articulated: the held angles and dihedrals a bond (s, l, end) creates.
+  void hold_rows(int s, int l, int end);
   bool bond_possible() const;
   void check_state(double t);
-  double bond_drift(double* angle_deg) const;
+  // The bonds' drift (welded: the frames' shift and turn; articulated: the
+  // ball joints' separation and the held angles' error, degrees), and for
+  // held dihedrals their largest |phi - phi0| (degrees) and |C|.
+  double bond_drift(double* angle_deg, double* dihedral_deg, double* dihedral_c) const;
   bool articulated() const { return opt_.joint == JointReading::Articulated; }
 
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();  // set-up included, as ringsim
@@ -193,13 +198,19 @@ class Peer {
   std::unique_ptr<btDefaultCollisionConfiguration> config_;
   std::unique_ptr<btCollisionDispatcher> dispatcher_;
   std::unique_ptr<btBroadphaseInterface> broadphase_;
-  std::unique_ptr<btSequentialImpulseConstraintSolver> solver_;
+  std::unique_ptr<HeldDihedralSolver> solver_;  // Bullet's solver, plus the held dihedrals' rows
   std::unique_ptr<btDiscreteDynamicsWorld> world_;
   std::vector<std::unique_ptr<btCollisionShape>> shapes_;
   std::vector<std::unique_ptr<btRigidBody>> bodies_, walls_;
   std::vector<btVector3> inertia_;  // principal moments in the body frame
   std::vector<HeldBond> held_;       // one per bond
   std::vector<HeldAngleRow> angles_;  // articulated, angle filter on
+  std::vector<std::unique_ptr<HeldDihedralConstraint>> dihedrals_;  // articulated, coplanarity filter on
+  // Articulated: the bonds as ringsim's cluster topology, every body by its
+  // id (add_articulated_bond decides which angles and dihedrals a bond
+  // holds), with the held rows it made (joints_; their values at bonding).
+  CompliantCluster topology_;
+  JointSet joints_;
 
   // Contact episodes: a pair touching at this step and not at the last one
   // is one collision (keys: i * (n + 6) + j, walls as n .. n + 5).
@@ -213,7 +224,7 @@ class Peer {
   long rejected_valency_ = 0, rejected_angle_ = 0, rejected_coplanarity_ = 0;
   double max_penetration_ = 0.0, max_penetration_t_ = 0.0, sum_step_penetration_ = 0.0;
   double e0_ = 0.0, e_min_ = 0.0, e_max_ = 0.0;
-  double max_bond_drift_ = 0.0, max_bond_angle_deg_ = 0.0;
+  double max_bond_drift_ = 0.0, max_bond_angle_deg_ = 0.0, max_dihedral_deg_ = 0.0, max_dihedral_c_ = 0.0;
   Failure non_finite_, escaped_, deep_penetration_, energy_blowup_, energy_drain_, joint_drift_, drift_capture_;
   std::string error_;
 };
@@ -222,7 +233,7 @@ void Peer::build_world() {
   config_ = std::make_unique<btDefaultCollisionConfiguration>();
   dispatcher_ = std::make_unique<btCollisionDispatcher>(config_.get());
   broadphase_ = std::make_unique<btDbvtBroadphase>();
-  solver_ = std::make_unique<btSequentialImpulseConstraintSolver>();
+  solver_ = std::make_unique<HeldDihedralSolver>();
   world_ = std::make_unique<btDiscreteDynamicsWorld>(dispatcher_.get(), broadphase_.get(), solver_.get(),
                                                      config_.get());
   world_->setGravity(btVector3(0, 0, 0));
@@ -416,7 +427,10 @@ bool Peer::rules_pass(int s, int l, int end, double t) {
   if (!bp.coplanarity_filter) return true;
   // The dihedral about a linker of axis uc, given its neighbours' outward
   // axes at its end 0 and at its end 1.
+  // Articulated: a held dihedral needs a measurable phi0 (ringsim's rule;
+  // core/joints.hpp, held_dihedral_defined).
   auto planar = [&](const Vec3& uc, const Vec3& at0, const Vec3& at1) {
+    if (articulated() && !held_dihedral_defined(uc, at0, at1)) return false;
     return planarity_ok(dihedral_deg(uc, at0, at1), bp);
   };
   // The new linker, when its other end already sits on a sphere: every pair
@@ -490,19 +504,7 @@ void Peer::form_bond(int s, int l, int end, double t, bool closure) {
     hb.constraint = std::make_unique<btFixedConstraint>(a, b, hb.frame_a, hb.frame_b);
   world_->addConstraint(hb.constraint.get(), true);  // no contacts between the two
   held_.push_back(std::move(hb));
-  if (articulated() && p_.bonding.angle_filter) {
-    // ringsim's add_compliant_bond: one held angle per linker already on s
-    // (rules_pass refused the capture if one could not be held).
-    for (const BondedEnd& other : graph_.linkers_of(s)) {
-      if (other.linker == l && other.end == end) continue;
-      HeldAngleRow ha;
-      ha.sphere = s;
-      ha.constraint = std::make_unique<HeldAngleConstraint>(*bodies_[other.linker], other.end, b, end);
-      // Contacts between the two linkers are the exclusions' to decide (near_callback).
-      world_->addConstraint(ha.constraint.get(), false);
-      angles_.push_back(std::move(ha));
-    }
-  }
+  if (articulated()) hold_rows(s, l, end);
   monitor_.set(t, graph_.N_t());
   if (!merge || closure) return;
   // Ring closure (ringsim's rigid merge): every (sphere, free end) pair the
@@ -527,6 +529,36 @@ void Peer::form_bond(int s, int l, int end, double t, bool closure) {
   for (const auto& [cs, cl, ce] : closures) {
     handled_.push_back((2 * static_cast<std::uint64_t>(cl) + ce) * n_ + cs);
     if (rules_pass(cs, cl, ce, t)) form_bond(cs, cl, ce, t, true);
+  }
+}
+
+void Peer::hold_rows(int s, int l, int end) {
+  // ringsim's add_articulated_bond on the bonds so far decides what the bond
+  // holds (with the filters on: a held angle per linker already on s, a held
+  // dihedral per pair of neighbours about every linker whose two ends are
+  // now bonded to spheres with a second linker; rules_pass refused the
+  // capture if one could not be held), measured on this step's poses.
+  for (int i = n_s_; i < n_; ++i) {
+    const btQuaternion q = bodies_[i]->getWorldTransform().getRotation();
+    topology_.bodies[i].q = Quat(double(q.w()), double(q.x()), double(q.y()), double(q.z())).normalized();
+  }
+  const std::size_t na = joints_.angles.size(), nd = joints_.dihedrals.size();
+  add_articulated_bond(topology_, joints_, s, l, end, p_.bonding);
+  // Contacts between the linkers of a row are the exclusions' to decide (near_callback).
+  for (std::size_t k = na; k < joints_.angles.size(); ++k) {
+    // Its theta0 from the engine's axes (HeldAngleConstraint).
+    const HeldAngle& a = joints_.angles[k];
+    HeldAngleRow ha;
+    ha.sphere = a.sphere;
+    ha.constraint = std::make_unique<HeldAngleConstraint>(*bodies_[a.linker_a], a.end_a, *bodies_[a.linker_b], a.end_b);
+    world_->addConstraint(ha.constraint.get(), false);
+    angles_.push_back(std::move(ha));
+  }
+  for (std::size_t k = nd; k < joints_.dihedrals.size(); ++k) {
+    const HeldDihedral& d = joints_.dihedrals[k];
+    dihedrals_.push_back(std::make_unique<HeldDihedralConstraint>(*bodies_[d.linker], *bodies_[d.nb0], d.nb0_end,
+                                                                  *bodies_[d.nb1], d.nb1_end, d.phi0));
+    world_->addConstraint(dihedrals_.back().get(), false);
   }
 }
 
@@ -620,8 +652,9 @@ bool Peer::bond_possible() const {
   return any_sphere && any_end && (spread || articulated());
 }
 
-double Peer::bond_drift(double* angle_deg) const {
+double Peer::bond_drift(double* angle_deg, double* dihedral_deg, double* dihedral_c) const {
   double worst = 0.0, worst_angle = 0.0;
+  *dihedral_deg = *dihedral_c = 0.0;
   if (articulated()) {
     // The ball joints' separation (the two pivots in the world) and the held
     // angles' error.
@@ -632,6 +665,10 @@ double Peer::bond_drift(double* angle_deg) const {
     }
     for (const HeldAngleRow& ha : angles_)
       worst_angle = std::max(worst_angle, double(ha.constraint->angle_error()) * 180.0 / M_PI);
+    for (const auto& hd : dihedrals_) {
+      *dihedral_deg = std::max(*dihedral_deg, hd->dihedral_error() * 180.0 / M_PI);
+      *dihedral_c = std::max(*dihedral_c, std::abs(hd->residual()));
+    }
     *angle_deg = worst_angle;
     return worst;
   }
@@ -663,15 +700,19 @@ void Peer::check_state(double t) {
     const double r = store_.sp(i).bounding_radius;
     if ((x.array() < -r).any() || (x.array() > L + r).any()) escaped_.note(t);  // through a wall
   }
-  double angle = 0.0;
-  const double drift = bond_drift(&angle);
+  double angle = 0.0, dihedral = 0.0, dihedral_c = 0.0;
+  const double drift = bond_drift(&angle, &dihedral, &dihedral_c);
   max_bond_drift_ = std::max(max_bond_drift_, drift);
   max_bond_angle_deg_ = std::max(max_bond_angle_deg_, angle);
+  max_dihedral_deg_ = std::max(max_dihedral_deg_, dihedral);
+  max_dihedral_c_ = std::max(max_dihedral_c_, dihedral_c);
   // A held bond that moved by more than the capture shell, or turned by
   // more than the angle window: the weld no longer holds the model's pose.
-  // Articulated: a ball joint apart by more than the shell, or a held angle
-  // off by more than the window.
-  if (drift > p_.bonding.capture_distance || angle > p_.bonding.dtheta_deg) joint_drift_.note(t);
+  // Articulated: a ball joint apart by more than the shell, a held angle
+  // off by more than the angle window, or a held dihedral by more than the
+  // coplanarity window.
+  if (drift > p_.bonding.capture_distance || angle > p_.bonding.dtheta_deg || dihedral > p_.bonding.dphi_deg)
+    joint_drift_.note(t);
 }
 
 nlohmann::json Peer::run() {
@@ -773,12 +814,24 @@ nlohmann::json Peer::run() {
   peer["mean_step_penetration"] = steps_ > 0 ? sum_step_penetration_ / static_cast<double>(steps_) : 0.0;
   peer["bond_constraints"] = held_.size();
   // Constraints by kind: fixed (welded bonds), ball (articulated bonds),
-  // held_angle (articulated, angle filter on).
+  // held_angle (articulated, angle filter on), held_dihedral (articulated,
+  // coplanarity filter on; of which held_dihedral_one_neighbour have one
+  // linker as both neighbours, a ring of two spheres, and are identically
+  // zero: held_dihedral.hpp).
+  long one_neighbour = 0;
+  for (const auto& hd : dihedrals_) one_neighbour += &hd->neighbour0() == &hd->neighbour1();
   peer["constraints"] = {{"fixed", articulated() ? 0 : held_.size()},
                          {"ball", articulated() ? held_.size() : 0},
-                         {"held_angle", angles_.size()}};
+                         {"held_angle", angles_.size()},
+                         {"held_dihedral", dihedrals_.size()},
+                         {"held_dihedral_one_neighbour", one_neighbour}};
   peer["max_bond_drift"] = max_bond_drift_;
   peer["max_bond_angle_drift_deg"] = max_bond_angle_deg_;
+  // Held dihedrals: the largest |phi - phi0| (to the row's zero set, phi0 or
+  // phi0 + pi; held_dihedral.hpp) and the largest |C|, at the checks.
+  peer["max_dihedral_drift_deg"] = max_dihedral_deg_;
+  peer["max_dihedral_residual"] = max_dihedral_c_;
+  peer["skipped_dihedral_rows"] = solver_->skipped_rows();
   peer["failures"] = {{"non_finite", non_finite_.json()},
                       {"escaped", escaped_.json()},
                       {"deep_penetration", deep_penetration_.json()},

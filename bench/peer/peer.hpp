@@ -34,12 +34,15 @@ namespace ringsim::peer {
 //    two bodies in different clusters; rings close only in the scan of a
 //    merge.
 //  - Articulated: a btPoint2PointConstraint per bond (the ball joint at the
-//    sphere's centre), and with bonding.angle_filter on a held bond angle per
-//    pair of linkers on one sphere (held_angle.hpp, a one-row constraint).
+//    sphere's centre), and the held rows ringsim's add_articulated_bond
+//    names: with bonding.angle_filter on a held bond angle per pair of
+//    linkers on one sphere (held_angle.hpp, a one-row constraint); with
+//    bonding.coplanarity_filter on a held dihedral per pair of neighbours
+//    about a linker bonded at both ends (held_dihedral.hpp: a three-body row,
+//    which a Bullet constraint row between two bodies cannot express, solved
+//    by a subclass of Bullet's solver inside its Gauss-Seidel sweeps).
 //    Captures inside a cluster are bonds (ring closure by a chain folding);
 //    contacts follow bonding.exclusions (1-3 or 1-2) inside clusters too.
-//    The held dihedral (bonding.coplanarity_filter on) couples three linkers,
-//    which no Bullet constraint row between two bodies expresses: refused.
 enum class JointReading { Welded, Articulated };
 
 const char* to_string(JointReading j);

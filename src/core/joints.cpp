@@ -169,9 +169,33 @@ Eigen::VectorXd joint_residual(const std::vector<CompliantBody>& bodies, const J
   for (const HeldDihedral& d : joints.dihedrals) {
     const Vec3 u = bodies[d.linker].axis();
     const Vec3 n0 = outward(bodies[d.nb0], d.nb0_end), n1 = outward(bodies[d.nb1], d.nb1_end);
-    c[row++] = std::cos(d.phi0) * u.dot(n0.cross(n1)) - std::sin(d.phi0) * (n0.dot(n1) - u.dot(n0) * u.dot(n1));
+    c[row++] = held_dihedral_residual(u, n0, n1, d.phi0);
   }
   return c;
+}
+
+double held_dihedral_residual(const Vec3& u, const Vec3& n0, const Vec3& n1, double phi0) {
+  return std::cos(phi0) * u.dot(n0.cross(n1)) - std::sin(phi0) * (n0.dot(n1) - u.dot(n0) * u.dot(n1));
+}
+
+// C = cos(phi0) A - sin(phi0) B with the triple product A = u.(n0 x n1)
+// = |a||b| sin(phi) and B = (u x n0).(u x n1) = n0.n1 - (u.n0)(u.n1)
+// = |a||b| cos(phi) (a = u x n0, b = u x n1). A rotation omega_k of the body
+// carrying vector w moves it at omega_k x w, and x.(y x z) is invariant
+// under cyclic shifts, so with c0 = u.n0, c1 = u.n1:
+//   dA: omega_M . u x (n0 x n1) + omega_0 . n0 x (n1 x u) + omega_1 . n1 x (u x n0),
+//   dB: omega_0 . (n0 x n1 - c1 n0 x u) + omega_1 . (n1 x n0 - c0 n1 x u)
+//       - omega_M . (c1 u x n0 + c0 u x n1).
+void held_dihedral_gradient(const Vec3& u, const Vec3& n0, const Vec3& n1, double phi0, Vec3& g_m, Vec3& g_0,
+                            Vec3& g_1) {
+  const double cp = std::cos(phi0), sp = std::sin(phi0);
+  const double c0 = u.dot(n0), c1 = u.dot(n1);
+  const Vec3 ga_m = u.cross(n0.cross(n1)), ga_0 = n0.cross(n1.cross(u)), ga_1 = n1.cross(u.cross(n0));
+  const Vec3 gb_0 = n0.cross(n1) - c1 * n0.cross(u), gb_1 = n1.cross(n0) - c0 * n1.cross(u);
+  const Vec3 gb_m = -(c1 * u.cross(n0) + c0 * u.cross(n1));
+  g_m = cp * ga_m - sp * gb_m;
+  g_0 = cp * ga_0 - sp * gb_0;
+  g_1 = cp * ga_1 - sp * gb_1;
 }
 
 HostedColumns::HostedColumns(const std::vector<CompliantBody>& bodies, const JointSet& joints)
@@ -242,15 +266,9 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     ++row;
   }
 
-  // Held dihedral, C = cos(phi0) A - sin(phi0) B with the triple product
-  // A = u.(n0 x n1) = |a||b| sin(phi) and B = (u x n0).(u x n1)
-  // = n0.n1 - (u.n0)(u.n1) = |a||b| cos(phi) (a = u x n0, b = u x n1). A
-  // rotation omega_k of the body carrying vector w moves it at omega_k x w, and
-  // x.(y x z) is invariant under cyclic shifts, so with c0 = u.n0, c1 = u.n1:
-  //   dA: omega_M . u x (n0 x n1) + omega_0 . n0 x (n1 x u) + omega_1 . n1 x (u x n0),
-  //   dB: omega_0 . (n0 x n1 - c1 n0 x u) + omega_1 . (n1 x n0 - c0 n1 x u)
-  //       - omega_M . (c1 u x n0 + c0 u x n1).
-  // Bias: A and B are polynomials in u, n0, n1, so (dG/dt) nu = C'' along the
+  // Held dihedral: G from held_dihedral_gradient (its derivation there).
+  // Bias: C = cos(phi0) A - sin(phi0) B, A = u.(n0 x n1), B = n0.n1 -
+  // (u.n0)(u.n1), polynomials in u, n0, n1, so (dG/dt) nu = C'' along the
   // motion at constant omegas (w' = omega x w, w'' = omega x w'), by the
   // product rule.
   for (const HeldDihedral& d : joints.dihedrals) {
@@ -258,12 +276,11 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     const Vec3 u = lm.axis(), n0 = outward(l0, d.nb0_end), n1 = outward(l1, d.nb1_end);
     const double cp = std::cos(d.phi0), sp = std::sin(d.phi0);
     const double c0 = u.dot(n0), c1 = u.dot(n1);
-    const Vec3 ga_m = u.cross(n0.cross(n1)), ga_0 = n0.cross(n1.cross(u)), ga_1 = n1.cross(u.cross(n0));
-    const Vec3 gb_0 = n0.cross(n1) - c1 * n0.cross(u), gb_1 = n1.cross(n0) - c0 * n1.cross(u);
-    const Vec3 gb_m = -(c1 * u.cross(n0) + c0 * u.cross(n1));
-    g.block<1, 3>(row, offset[d.linker] + 3) += (cp * ga_m - sp * gb_m).transpose();
-    g.block<1, 3>(row, offset[d.nb0] + 3) += (cp * ga_0 - sp * gb_0).transpose();
-    g.block<1, 3>(row, offset[d.nb1] + 3) += (cp * ga_1 - sp * gb_1).transpose();
+    Vec3 g_m, g_0, g_1;
+    held_dihedral_gradient(u, n0, n1, d.phi0, g_m, g_0, g_1);
+    g.block<1, 3>(row, offset[d.linker] + 3) += g_m.transpose();
+    g.block<1, 3>(row, offset[d.nb0] + 3) += g_0.transpose();
+    g.block<1, 3>(row, offset[d.nb1] + 3) += g_1.transpose();
 
     const Vec3 du = lm.omega.cross(u), dn0 = l0.omega.cross(n0), dn1 = l1.omega.cross(n1);
     const Vec3 ddu = lm.omega.cross(du), ddn0 = l0.omega.cross(dn0), ddn1 = l1.omega.cross(dn1);

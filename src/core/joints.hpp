@@ -149,6 +149,16 @@ void displace(std::vector<CompliantBody>& bodies, const VelocityLayout& layout, 
 // The constraint residual C, in the row order of the header.
 Eigen::VectorXd joint_residual(const std::vector<CompliantBody>& bodies, const JointSet& joints);
 
+// One held dihedral's row from the three unit axes (u of the central linker,
+// n0, n1 the neighbours' outward axes) and phi0: C, and its omega columns
+// for the central linker and the two neighbours (g_m + g_0 + g_1 = 0: C is
+// invariant under a common rotation). joint_residual and joint_rows are
+// built on these, and so is the Bullet peer's three-body row
+// (bench/peer/held_dihedral.hpp).
+double held_dihedral_residual(const Vec3& u, const Vec3& n0, const Vec3& n1, double phi0);
+void held_dihedral_gradient(const Vec3& u, const Vec3& n0, const Vec3& n1, double phi0, Vec3& g_m, Vec3& g_0,
+                            Vec3& g_1);
+
 // C, G (rows x layout.size) and the bias (dG/dt) nu at the present velocities.
 struct JointRows {
   Eigen::VectorXd c;
