@@ -13,12 +13,12 @@ Two studies, each one command:
              (|ratio - 1|), and the largest penetration (ringsim's contacts
              fire at a gap in [delta/2, delta]: none). Cost: median wall
              seconds per replicate (set-up included).
-  scenario   a scenario file with bonding (welded bonds in the peer), R
-             replicates per setting: the observables N_t, Phi_viab, M_mono,
-             S4, Phi_obj, the peer's paired difference from ringsim (same
-             seeds) with a 95 % CI (Student t), and cost. Both run welded
-             bonds (--set bonding.joint=welded, passed to ringsim when it
-             knows the key; the peer has no other reading yet).
+  scenario   a scenario file with bonding, R replicates per setting: the
+             observables N_t, Phi_viab, M_mono, S4, Phi_obj, the peer's
+             paired difference from ringsim (same seeds) with a 95 % CI
+             (Student t), and cost. Both methods run the bond reading of
+             --joint (welded by default; passed to ringsim when it knows the
+             key bonding.joint).
 
 ringsim's settings are its accuracy knob run.contact_tolerance; the peer's
 are dt, in single precision (ringsim_peer) and, when given, double
@@ -31,7 +31,8 @@ Usage:
       --peer build/bench/peer/ringsim_peer [--peer64 build/bench/peer/ringsim_peer64] \\
       --out OUT [-R 2] [--t-max 500] [--dts 0.05,0.02,0.01,0.005,0.002] [--plot-only] [--chart BASE]
   /usr/bin/python3 bench/peer_chart.py scenario --scenario jobs/scenarios/4-passive-selection.toml \\
-      --ringsim build/ringsim --peer build/bench/peer/ringsim_peer --out OUT [-R 8] [--t-max 5000]
+      --ringsim build/ringsim --peer build/bench/peer/ringsim_peer --out OUT [-R 8] [--t-max 5000] \\
+      [--joint welded|articulated]
 
 The runs go one at a time (--jobs 1) so that wall times are not shared.
 """
@@ -109,8 +110,9 @@ def settings(a):
     sets = ["--set", f"run.t_max={a.t_max}"] + sum((["--set", s] for s in a.set), [])
     if a.study == "gas":
         sets += ["--set", "bonding.enabled=false"]
-    # Both methods in the same bond reading: the peer has welded bonds only.
-    joint = ["--set", "bonding.joint=welded"] if a.study == "scenario" else []
+    # Both methods in the same bond reading (--joint; welded by default,
+    # the reading the earlier charts used).
+    joint = ["--set", f"bonding.joint={a.joint}"] if a.study == "scenario" else []
     ringsim_joint = joint if joint and knows_joint_key(a.ringsim) else []
     for tol in TOLERANCES:
         out.append(("ringsim", tol, lambda r, tol=tol: [a.ringsim, "replicate", *base, "--seed", str(a.seed),
@@ -127,7 +129,8 @@ def settings(a):
 
 def tag(a):
     name = "gas" if a.scenario is None else pathlib.Path(a.scenario).stem
-    return f"{name}__t{a.t_max}" + "".join("__" + s.replace("=", "-") for s in a.set)
+    joint = "__articulated" if a.study == "scenario" and a.joint == "articulated" else ""
+    return f"{name}__t{a.t_max}" + joint + "".join("__" + s.replace("=", "-") for s in a.set)
 
 
 def collect(a):
@@ -286,6 +289,8 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--t-max", type=float, default=None)
     ap.add_argument("--dts", default=DTS)
+    ap.add_argument("--joint", choices=["welded", "articulated"], default="welded",
+                    help="bond reading of both methods (study 'scenario')")
     ap.add_argument("--set", action="append", default=[], help="extra SECTION.KEY=VALUE for both methods")
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--plot-only", action="store_true")
@@ -311,7 +316,7 @@ def main():
         title = f"Hard-body gas, 300 S + 300 L, T = {a.t_max}, R = {a.R} (median)"
     else:
         table = scenario_table(a, rows)
-        title = f"{name}, R = {a.R}: the peer (welded bonds) against ringsim, same seeds"
+        title = f"{name}, R = {a.R}: the peer ({a.joint} bonds) against ringsim, same seeds"
     base = pathlib.Path(a.chart) if a.chart else out / name
     write_csv(base.with_suffix(".csv"), table)
     if a.study == "gas":
