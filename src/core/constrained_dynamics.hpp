@@ -127,7 +127,7 @@ Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, cons
 // carrying its hosted spheres (a dense 6 x 6 mass block about the linker's
 // centre), and the spheres that have no joint; the host joints' rows drop
 // out (3 rows per bonded sphere: half the rows of a chain). With nu = T nu_r
-// + c (a hosted sphere's acceleration is its host's at the joint point,
+// and nu' = T nu_r' + c (a hosted sphere's acceleration is its host's at the joint point,
 // a_S = a_L + alpha_L x r + omega_L x (omega_L x r), r = R(q_L) a, exactly
 // what the host row's C'' = 0 says), M_r = T^T M T, f_r = T^T (f - M c),
 // G_r = G T and the bias b + G c: the accelerations are those of the full
