@@ -233,72 +233,97 @@ Eigen::Matrix<double, 6, 6> inverse_rigid_mass(const Eigen::Matrix<double, 6, 6>
 
 }  // namespace
 
-void add_constraint_loads(const std::vector<CompliantBody>& bodies, const JointSet& joints,
-                          std::vector<Vec3>& force, std::vector<Vec3>& torque) {
-  if (joints.empty()) return;
-  const int n = int(bodies.size());
-  const MassMatrix m(bodies);
-  const Eigen::VectorXd f = generalized_force(bodies, m, force, torque);
-  const HostedColumns hc(bodies, joints);
-
+HostedProblem::HostedProblem(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m)
+    : columns(bodies, joints) {
   // M_r = T^T M T block by block: a linker's own diag(m 1, I), plus for each
   // sphere it hosts (mass m_S at arm r) [[m_S 1, -m_S [r]x], [m_S [r]x,
-  // -m_S [r]x^2]]; a sphere without a joint keeps m 1. f_r = T^T (f - M c):
-  // a hosted sphere's f_S - m_S c moves to its host as a force and its
-  // moment r x (f_S - m_S c).
+  // -m_S [r]x^2]]; a sphere without a joint keeps m 1.
+  const int n = int(bodies.size());
   std::vector<Eigen::Matrix<double, 6, 6>> mass(n);
-  Eigen::VectorXd fr(hc.size);
   for (int i = 0; i < n; ++i) {
-    if (hc.host[i] >= 0) continue;
-    const int w = m.linker[i] ? 6 : 3;
+    if (columns.host[i] >= 0) continue;
     mass[i].setZero();
     mass[i].topLeftCorner<3, 3>() = m.mass[i] * Mat3::Identity();
     if (m.linker[i]) mass[i].bottomRightCorner<3, 3>() = m.inertia[i];
-    fr.segment(hc.offset[i], w) = f.segment(m.layout.offset[i], w);
   }
   for (int i = 0; i < n; ++i) {
-    if (hc.host[i] < 0) continue;
+    if (columns.host[i] < 0) continue;
     const double mi = m.mass[i];
-    const Mat3 rx = cross_matrix(hc.arm[i]);
-    Eigen::Matrix<double, 6, 6>& mh = mass[hc.host[i]];
+    const Mat3 rx = cross_matrix(columns.arm[i]);
+    Eigen::Matrix<double, 6, 6>& mh = mass[columns.host[i]];
     mh.topLeftCorner<3, 3>() += mi * Mat3::Identity();
     mh.topRightCorner<3, 3>() -= mi * rx;
     mh.bottomLeftCorner<3, 3>() += mi * rx;
     mh.bottomRightCorner<3, 3>() -= mi * rx * rx;
-    const Vec3 e = f.segment<3>(m.layout.offset[i]) - mi * hc.c[i];
-    fr.segment<3>(hc.offset[i]) += e;
-    fr.segment<3>(hc.offset[i] + 3) += hc.arm[i].cross(e);
   }
-  InverseMassBlocks minv;
   minv.offset.reserve(n);
   minv.width.reserve(n);
   minv.inv.reserve(n);
-  for (int i = 0; i < n; ++i) {
-    if (hc.host[i] >= 0) continue;
-    minv.add(m.linker[i] ? 6 : 3, inverse_rigid_mass(mass[i]));
+  for (int i = 0; i < n; ++i)
+    if (columns.host[i] < 0) minv.add(m.linker[i] ? 6 : 3, inverse_rigid_mass(mass[i]));
+}
+
+Eigen::VectorXd HostedProblem::gather(const MassMatrix& m, const Eigen::VectorXd& x) const {
+  Eigen::VectorXd y(columns.size);
+  const int n = int(columns.host.size());
+  for (int i = 0; i < n; ++i)
+    if (columns.host[i] < 0) {
+      const int w = m.linker[i] ? 6 : 3;
+      y.segment(columns.offset[i], w) = x.segment(m.layout.offset[i], w);
+    }
+  for (int i = 0; i < n; ++i)
+    if (columns.host[i] >= 0) {  // a force on the sphere acts on its host, with its moment about the host's centre
+      const Vec3 e = x.segment<3>(m.layout.offset[i]);
+      y.segment<3>(columns.offset[i]) += e;
+      y.segment<3>(columns.offset[i] + 3) += columns.arm[i].cross(e);
+    }
+  return y;
+}
+
+Eigen::VectorXd HostedProblem::scatter(const MassMatrix& m, const Eigen::VectorXd& y) const {
+  Eigen::VectorXd x(m.layout.size);
+  for (std::size_t i = 0; i < columns.host.size(); ++i) {
+    const int o = m.layout.offset[i], r = columns.offset[i];
+    if (columns.host[i] >= 0) x.segment<3>(o) = y.segment<3>(r) + Vec3(y.segment<3>(r + 3)).cross(columns.arm[i]);
+    else x.segment(o, m.linker[i] ? 6 : 3) = y.segment(r, m.linker[i] ? 6 : 3);
   }
+  return x;
+}
+
+void add_constraint_loads(const std::vector<CompliantBody>& bodies, const JointSet& joints,
+                          std::vector<Vec3>& force, std::vector<Vec3>& torque) {
+  if (joints.empty()) return;
+  const MassMatrix m(bodies);
+  const Eigen::VectorXd f = generalized_force(bodies, m, force, torque);
+  const HostedProblem p(bodies, joints, m);
+  const HostedColumns& hc = p.columns;
+
+  // f_r = T^T (f - M c): c, a hosted sphere's acceleration at zero host
+  // acceleration, only on the hosted spheres' rows.
+  Eigen::VectorXd fc = f;
+  for (std::size_t i = 0; i < bodies.size(); ++i)
+    if (hc.host[i] >= 0) fc.segment<3>(m.layout.offset[i]) -= m.mass[i] * hc.c[i];
+  const Eigen::VectorXd fr = p.gather(m, fc);
 
   Eigen::MatrixXd g;
   Eigen::VectorXd bias;
   hosted_joint_rows(bodies, hc, joints, g, bias);
-  const MultiplierSolve solve(g, minv);
+  const MultiplierSolve solve(g, p.minv);
   Eigen::VectorXd rhs = -bias;
-  rhs.noalias() -= g * minv.times(fr);
+  rhs.noalias() -= g * p.minv.times(fr);
   Eigen::VectorXd load = fr;
   load.noalias() += g.transpose() * solve.solve(rhs);
-  const Eigen::VectorXd acc = minv.times(load);
+  Eigen::VectorXd acc = p.scatter(m, p.minv.times(load));
+  for (std::size_t i = 0; i < bodies.size(); ++i)
+    if (hc.host[i] >= 0) acc.segment<3>(m.layout.offset[i]) += hc.c[i];
 
   // Back to every body: the loads that give these accelerations, M nu' - f
   // (a linker's torque I omega' + omega x I omega, so that dL/dt is right).
-  for (int i = 0; i < n; ++i) {
-    const int o = m.layout.offset[i], r = hc.offset[i];
-    if (hc.host[i] >= 0) {
-      const Vec3 a = acc.segment<3>(r) + Vec3(acc.segment<3>(r + 3)).cross(hc.arm[i]) + hc.c[i];
-      force[i] += m.mass[i] * a - f.segment<3>(o);
-      continue;
-    }
-    force[i] += m.mass[i] * acc.segment<3>(r) - f.segment<3>(o);
-    if (m.linker[i]) torque[i] += m.inertia[i] * acc.segment<3>(r + 3) - f.segment<3>(o + 3);
+  const Eigen::VectorXd added = m.times(acc) - f;
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const int o = m.layout.offset[i];
+    force[i] += added.segment<3>(o);
+    if (m.linker[i]) torque[i] += added.segment<3>(o + 3);
   }
 }
 

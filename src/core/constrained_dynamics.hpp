@@ -136,6 +136,23 @@ Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, cons
 void add_constraint_loads(const std::vector<CompliantBody>& bodies, const JointSet& joints,
                           std::vector<Vec3>& force, std::vector<Vec3>& torque);
 
+// The reduced problem of add_constraint_loads (and of the velocity
+// projection, core/joint_projection.hpp): its columns, M_r^-1 = (T^T M T)^-1
+// block by block (a linker carrying its hosted spheres: a dense 6 x 6 block
+// about the linker's centre, inverted through its Schur complement), and the
+// maps between the full velocity layout and its columns.
+struct HostedProblem {
+  HostedColumns columns;
+  InverseMassBlocks minv;
+
+  HostedProblem(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m);
+  // T^T x: a generalized force x (full layout) on the reduced columns (a
+  // hosted sphere's force moves to its host with its moment about the host's centre).
+  Eigen::VectorXd gather(const MassMatrix& m, const Eigen::VectorXd& x) const;
+  // T y: full velocity coordinates from reduced ones (v_S = v_H + omega_H x arm).
+  Eigen::VectorXd scatter(const MassMatrix& m, const Eigen::VectorXd& y) const;
+};
+
 // Every load on the bodies of a cluster at its present state: the compliant
 // force field (core/compliant.hpp, dampers included) plus the constraint
 // loads of `joints`. The one definition of the accelerations, for the
