@@ -17,19 +17,35 @@ VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const 
   const MassMatrix m(bodies);
   JointRows rows;
   joint_rows(bodies, m.layout, joints, rows);
-  const MultiplierSolve solve(rows.g, m);
   const Eigen::VectorXd nu = velocity_vector(bodies, m.layout);
   const Eigen::VectorXd gv = rows.g * nu;
-  const Eigen::VectorXd nu1 = nu - solve.minv_gt() * solve.solve(gv);
+  Eigen::VectorXd nu1;
+  const int balls = 3 * int(joints.balls.size());
+  if (held_sines && joints.rows() > balls) {
+    // The held rows' sines are those of the problem in maximal coordinates
+    // (the span of every other row, ball joints included).
+    const MultiplierSolve solve(rows.g, m);
+    nu1 = nu - solve.minv_gt() * solve.solve(gv);
+    const Eigen::VectorXd s2 = solve.row_sines2(balls);  // the held rows come after the balls
+    r.weakest_held_sine2 = s2.size() == 0 ? -1.0 : s2.minCoeff();
+  } else {
+    // The same projection with each sphere riding on its host
+    // (HostedProblem): nu1 = T nu_r1 satisfies the host joints, and the
+    // M-closest such velocities are nu_r0 = M_r^-1 T^T M nu, projected in
+    // the M_r metric onto G_r nu_r = 0; the minimum of |nu1 - nu|_M over
+    // G nu1 = 0, as above, with 3 rows fewer per bonded sphere.
+    const HostedProblem p(bodies, joints, m);
+    Eigen::MatrixXd g;
+    Eigen::VectorXd bias;
+    hosted_joint_rows(bodies, p.columns, joints, g, bias);
+    const MultiplierSolve solve(g, p.minv);
+    const Eigen::VectorXd nu_r0 = p.minv.times(p.gather(m, m.times(nu)));
+    nu1 = p.scatter(m, nu_r0 - solve.minv_gt() * solve.solve(g * nu_r0));
+  }
   set_velocities(bodies, m.layout, nu1);
   r.residual_before = max_abs(gv);
   r.residual_after = max_abs(rows.g * nu1);
   r.energy_change = 0.5 * (nu1.dot(m.times(nu1)) - nu.dot(m.times(nu)));
-  const int balls = 3 * int(joints.balls.size());
-  if (held_sines && joints.rows() > balls) {
-    const Eigen::VectorXd s2 = solve.row_sines2(balls);  // the held rows come after the balls
-    r.weakest_held_sine2 = s2.size() == 0 ? -1.0 : s2.minCoeff();
-  }
   return r;
 }
 

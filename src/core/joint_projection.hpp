@@ -9,7 +9,9 @@
 // (core/constrained_dynamics.hpp), so they change the motion as little as the
 // kinetic energy can measure:
 //  - velocities: nu' = nu - M^-1 G^T S^+ G nu (S = G M^-1 G^T), the
-//    M-orthogonal projection onto the null space of G. It is the impulse
+//    M-orthogonal projection onto the null space of G, solved with each
+//    sphere riding on its host (core/constrained_dynamics.hpp,
+//    HostedProblem) unless the held rows' sines are asked for. It is the impulse
 //    G^T mu (mu = -S^+ G nu) of perfectly inelastic joints: internal (the
 //    joints are invariant under global translation and rotation, so the
 //    impulses sum to zero force and zero torque about any point: momentum and
