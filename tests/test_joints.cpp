@@ -17,6 +17,7 @@
 #include "articulated_chain.hpp"
 #include "core/bond_rules.hpp"
 #include "core/constrained_dynamics.hpp"
+#include "core/joint_projection.hpp"
 #include "core/joints.hpp"
 
 namespace ringsim {
@@ -413,6 +414,24 @@ TEST(ConstrainedDynamics, RankDoesNotDependOnTheSizeOfARow) {
 // of the angle between them (on one body the M^-1 metric is a multiple of
 // the identity), whatever the rows' lengths; none once the rows are
 // dependent to within kRankThreshold.
+// The velocity projection measures the held rows' squared sines on its
+// reduced problem (spheres riding on their hosts) and converts them to the
+// maximal-coordinate ones the release thresholds are defined on: against
+// MultiplierSolve::row_sines2 on every row at the same pose, on chains
+// with held angles and dihedrals, one strongly perturbed.
+TEST(ConstrainedDynamics, ProjectionMeasuresTheHeldRowsSinesOfTheFullProblem) {
+  for (test::Articulated a : {every_row_chain(), test::open_chain(5, 0.3, true, true)}) {
+    const MassMatrix m(a.cluster.bodies);
+    JointRows rows;
+    joint_rows(a.cluster.bodies, m.layout, a.joints, rows);
+    const int balls = 3 * int(a.joints.balls.size());
+    const double expected = MultiplierSolve(rows.g, m).row_sines2(balls).minCoeff();
+    ASSERT_GT(expected, 0.0);
+    const VelocityProjection pr = project_velocities(a.bodies(), a.joints, true);
+    EXPECT_NEAR(pr.weakest_held_sine2, expected, 1e-10 * expected);
+  }
+}
+
 TEST(ConstrainedDynamics, IndependenceIsTheSquaredSineBetweenTwoRows) {
   const std::vector<CompliantBody> one = {test::sphere_at(Vec3::Zero())};
   const MassMatrix m(one);

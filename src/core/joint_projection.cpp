@@ -1,5 +1,6 @@
 #include "core/joint_projection.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/constrained_dynamics.hpp"
@@ -19,28 +20,33 @@ VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const 
   joint_rows(bodies, m.layout, joints, rows);
   const Eigen::VectorXd nu = velocity_vector(bodies, m.layout);
   const Eigen::VectorXd gv = rows.g * nu;
-  Eigen::VectorXd nu1;
-  const int balls = 3 * int(joints.balls.size());
-  if (held_sines && joints.rows() > balls) {
-    // The held rows' sines are those of the problem in maximal coordinates
-    // (the span of every other row, ball joints included).
-    const MultiplierSolve solve(rows.g, m);
-    nu1 = nu - solve.minv_gt() * solve.solve(gv);
-    const Eigen::VectorXd s2 = solve.row_sines2(balls);  // the held rows come after the balls
-    r.weakest_held_sine2 = s2.size() == 0 ? -1.0 : s2.minCoeff();
-  } else {
-    // The same projection with each sphere riding on its host
-    // (HostedProblem): nu1 = T nu_r1 satisfies the host joints, and the
-    // M-closest such velocities are nu_r0 = M_r^-1 T^T M nu, projected in
-    // the M_r metric onto G_r nu_r = 0; the minimum of |nu1 - nu|_M over
-    // G nu1 = 0, as above, with 3 rows fewer per bonded sphere.
-    const HostedProblem p(bodies, joints, m);
-    Eigen::MatrixXd g;
-    Eigen::VectorXd bias;
-    hosted_joint_rows(bodies, p.columns, joints, g, bias);
-    const MultiplierSolve solve(g, p.minv);
-    const Eigen::VectorXd nu_r0 = p.minv.times(p.gather(m, m.times(nu)));
-    nu1 = p.scatter(m, nu_r0 - solve.minv_gt() * solve.solve(g * nu_r0));
+  // Solved with each sphere riding on its host (HostedProblem): nu1 = T nu_r1
+  // satisfies the host joints, and the M-closest such velocities are
+  // nu_r0 = M_r^-1 T^T M nu, projected in the M_r metric onto G_r nu_r = 0:
+  // the minimum of |nu1 - nu|_M over G nu1 = 0, with 3 rows fewer per
+  // bonded sphere.
+  const HostedProblem p(bodies, joints, m);
+  Eigen::MatrixXd g;
+  Eigen::VectorXd bias;
+  hosted_joint_rows(bodies, p.columns, joints, g, bias);
+  const MultiplierSolve solve(g, p.minv);
+  const Eigen::VectorXd nu_r0 = p.minv.times(p.gather(m, m.times(nu)));
+  const Eigen::VectorXd nu1 = p.scatter(m, nu_r0 - solve.minv_gt() * solve.solve(g * nu_r0));
+  const int balls = 3 * int(joints.balls.size()), held = joints.rows() - balls;
+  if (held_sines && held > 0) {
+    // A held row's squared sine to the span of every other row, in maximal
+    // coordinates, is its part clear of that span (the Schur complement,
+    // the same in both problems: T M_r^-1 T^T is M^-1 restricted to the host
+    // joints' null space) over its own size g M^-1 g^T; the reduced solve
+    // gives that part as sine_r^2 (S_r)_ii. The held rows come last.
+    const Eigen::VectorXd s2 = solve.row_sines2(p.columns.rows - held);
+    r.weakest_held_sine2 = s2.size() == 0 ? -1.0 : 1.0;
+    for (int k = 0; k < int(s2.size()); ++k) {
+      const int i = p.columns.rows - held + k;
+      const Eigen::VectorXd gi = rows.g.row(balls + k).transpose();
+      const double s_full = gi.dot(m.inverse_times(gi));
+      r.weakest_held_sine2 = std::min(r.weakest_held_sine2, s2[k] * g.row(i).dot(solve.minv_gt().col(i)) / s_full);
+    }
   }
   set_velocities(bodies, m.layout, nu1);
   r.residual_before = max_abs(gv);

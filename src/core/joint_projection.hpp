@@ -11,7 +11,7 @@
 //  - velocities: nu' = nu - M^-1 G^T S^+ G nu (S = G M^-1 G^T), the
 //    M-orthogonal projection onto the null space of G, solved with each
 //    sphere riding on its host (core/constrained_dynamics.hpp,
-//    HostedProblem) unless the held rows' sines are asked for. It is the impulse
+//    HostedProblem). It is the impulse
 //    G^T mu (mu = -S^+ G nu) of perfectly inelastic joints: internal (the
 //    joints are invariant under global translation and rotation, so the
 //    impulses sum to zero force and zero torque about any point: momentum and
@@ -34,8 +34,9 @@ struct VelocityProjection {
   double residual_after = 0.0;   // after
   double energy_change = 0.0;    // kinetic energy after - before (<= 0)
   // With held_sines: the smallest squared sine of a held row to the span of
-  // the other rows (MultiplierSolve::row_sines2 on the projection's own
-  // factors), -1 when S is rank deficient, 1 without held rows.
+  // the other rows, in maximal coordinates (from MultiplierSolve::row_sines2
+  // on the projection's own reduced factors, converted: joint_projection.cpp),
+  // -1 when S is rank deficient, 1 without held rows.
   double weakest_held_sine2 = 1.0;
 };
 VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints,
