@@ -21,8 +21,14 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 for s in "${scenarios[@]}"; do
   for seed in $seeds; do
     for value in "$a" "$b"; do
-      w=$("$bin" replicate "$here/jobs/scenarios/$s.toml" --seed "$seed" --set "$key=$value" "${extra[@]}" --json 2>/dev/null |
-          /usr/bin/python3 -c 'import json,sys; j=json.load(sys.stdin); print(j["wall_seconds"], j["termination"], j["collisions"])')
+      # Exit status 3: the replicate ended in an error, its JSON says which.
+      rc=0
+      j=$("$bin" replicate "$here/jobs/scenarios/$s.toml" --seed "$seed" --set "$key=$value" "${extra[@]}" --json) || rc=$?
+      if [[ $rc -ne 0 && $rc -ne 3 ]]; then
+        echo "paired_timing: $s, seed $seed, $key=$value: ringsim exited $rc (its message above)" >&2
+        exit 1
+      fi
+      w=$(/usr/bin/python3 -c 'import json,sys; j=json.load(sys.stdin); print(j["wall_seconds"], j["termination"], j["collisions"])' <<<"$j")
       echo "$s seed $seed $value $w"
     done
   done
@@ -33,7 +39,9 @@ t = collections.defaultdict(list)
 for line in sys.stdin:
     f = line.split()
     t[(f[0], f[3])].append(float(f[4]))
-for s in dict.fromkeys(k[0] for k in t):
+complete = [s for s in dict.fromkeys(k[0] for k in t) if t[(s, a)] and t[(s, b)]]
+for s in complete:
     ma, mb = statistics.median(t[(s, a)]), statistics.median(t[(s, b)])
     print(f"{s}: median {a} {ma:.2f} s, {b} {mb:.2f} s, ratio {a}/{b} {ma / mb:.2f}")
+sys.exit(0 if complete and len(complete) == len({k[0] for k in t}) else 1)
 ' "$a" "$b"
