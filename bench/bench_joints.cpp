@@ -4,12 +4,16 @@
 // core/constrained_dynamics.hpp), against the same loads from the problem in
 // maximal coordinates (every body its own columns, every ball joint three
 // rows: the solve the right-hand side made before the hosted one).
+// BM_ConstraintLoadsReused is the hosted solve as the integrator's
+// right-hand side calls it: one ConstraintLoads kept from call to call (no
+// allocation, no M^-1 G^T, the rows' body blocks from the joints).
 // Arguments: m, then 0 = ball joints only (Scenario 1), 1 = held angles and
 // dihedrals too (Scenario 4). docs/ARTICULATED.md, "Cost".
 //   bench_joints --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <vector>
 
 #include "articulated_chain.hpp"
@@ -32,6 +36,20 @@ void BM_ConstraintLoadsHosted(benchmark::State& state) {
   for (auto _ : state) {
     std::vector<Vec3> f(n, Vec3::Zero()), tau(n, Vec3::Zero());
     add_constraint_loads(a.cluster.bodies, a.joints, f, tau);
+    benchmark::DoNotOptimize(f.data());
+  }
+  state.counters["rows"] = HostedColumns(a.cluster.bodies, a.joints).rows;
+}
+
+void BM_ConstraintLoadsReused(benchmark::State& state) {
+  const test::Articulated a = chain(state);
+  const std::size_t n = a.cluster.bodies.size();
+  ConstraintLoads loads;
+  std::vector<Vec3> f(n), tau(n);
+  for (auto _ : state) {
+    std::fill(f.begin(), f.end(), Vec3::Zero());
+    std::fill(tau.begin(), tau.end(), Vec3::Zero());
+    loads.add(a.cluster.bodies, a.joints, f, tau);
     benchmark::DoNotOptimize(f.data());
   }
   state.counters["rows"] = HostedColumns(a.cluster.bodies, a.joints).rows;
@@ -64,5 +82,6 @@ void chains(benchmark::internal::Benchmark* b) {
 }  // namespace
 
 BENCHMARK(BM_ConstraintLoadsHosted)->Apply(chains);
+BENCHMARK(BM_ConstraintLoadsReused)->Apply(chains);
 BENCHMARK(BM_ConstraintLoadsMaximal)->Apply(chains);
 BENCHMARK_MAIN();

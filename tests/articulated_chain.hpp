@@ -10,6 +10,7 @@
 
 #include "compliant_chain.hpp"
 #include "core/compliant.hpp"
+#include "core/constrained_dynamics.hpp"
 #include "core/joints.hpp"
 #include "core/scene.hpp"
 
@@ -130,6 +131,17 @@ inline Articulated open_chain(int m, double off, bool angles, bool dihedrals) {
     }
   }
   return a;
+}
+
+// The saddle-point matrix [M G^T; G 0] of a constrained problem in maximal
+// coordinates, for the dense reference solves of the tests.
+inline Eigen::MatrixXd kkt_matrix(const MassMatrix& m, const Eigen::MatrixXd& g) {
+  const Eigen::Index n = m.layout.size, k = g.rows();
+  Eigen::MatrixXd kkt = Eigen::MatrixXd::Zero(n + k, n + k);
+  kkt.topLeftCorner(n, n) = m.dense();
+  kkt.topRightCorner(n, k) = g.transpose();
+  kkt.bottomLeftCorner(k, n) = g;
+  return kkt;
 }
 
 }  // namespace test

@@ -215,10 +215,7 @@ TEST(ConstrainedDynamics, SpheresRidingOnHostsGiveTheFullAccelerations) {
     JointRows rows;
     joint_rows(b, m.layout, a.joints, rows);
     const int nv = m.layout.size, nr = int(rows.g.rows());
-    Eigen::MatrixXd kkt = Eigen::MatrixXd::Zero(nv + nr, nv + nr);
-    kkt.topLeftCorner(nv, nv) = m.dense();
-    kkt.topRightCorner(nv, nr) = rows.g.transpose();
-    kkt.bottomLeftCorner(nr, nv) = rows.g;
+    const Eigen::MatrixXd kkt = test::kkt_matrix(m, rows.g);
     Eigen::VectorXd rhs(nv + nr);
     rhs << generalized_force(b, m, f, tau), -rows.bias;
     const Eigen::VectorXd ref = kkt.completeOrthogonalDecomposition().solve(rhs).head(nv);
@@ -285,6 +282,42 @@ TEST(ConstrainedDynamics, BlockAssembledSMatchesDenseProduct) {
     EXPECT_LT((solve.s() - s).norm(), 1e-12 * s.norm()) << "seed " << seed;
     EXPECT_TRUE(solve.s() == solve.s().transpose()) << "seed " << seed;  // exactly symmetric
   }
+}
+
+// The right-hand side's assembly finds the rows that touch each body from
+// the joints (hosted_joint_rows' RowBlocks), not by reading G: the same S
+// and M^-1 G^T bit for bit as the assembly that reads G, and S against the
+// dense product G_r M_r^-1 G_r^T. One added dihedral names the same
+// neighbour at both ends (a ring of two linkers does): its block is counted once.
+TEST(ConstrainedDynamics, RowBlocksGiveTheSameAssembly) {
+  test::Articulated a = every_row_chain(21);
+  HeldDihedral twice = a.joints.dihedrals.front();
+  twice.nb1 = twice.nb0;
+  twice.nb1_end = 1 - twice.nb0_end;
+  a.joints.dihedrals.push_back(twice);
+  const std::vector<CompliantBody>& b = a.cluster.bodies;
+  const MassMatrix m(b);
+  const HostedProblem p(b, a.joints, m);
+  Eigen::MatrixXd g;
+  Eigen::VectorXd bias;
+  RowBlocks blocks;
+  hosted_joint_rows(b, p.columns, a.joints, g, bias, &blocks);
+  ASSERT_EQ(blocks.size(), std::size_t(g.rows()));
+  MultiplierSolve read, given;
+  read.compute(g, p.minv, MultiplierSolve::Options());
+  MultiplierSolve::Options with_blocks;
+  with_blocks.blocks = &blocks;
+  given.compute(g, p.minv, with_blocks);
+  EXPECT_TRUE(read.s() == given.s());
+  EXPECT_TRUE(read.minv_gt() == given.minv_gt());
+
+  Eigen::MatrixXd minv = Eigen::MatrixXd::Zero(p.minv.size, p.minv.size);
+  for (std::size_t i = 0; i < p.minv.offset.size(); ++i) {
+    const int o = p.minv.offset[i], w = p.minv.width[i];
+    minv.block(o, o, w, w) = p.minv.inv[i].topLeftCorner(w, w);
+  }
+  const Eigen::MatrixXd s = g * minv * g.transpose();
+  EXPECT_LT((given.s() - s).norm(), 1e-12 * s.norm());
 }
 
 // Internal degrees of freedom = velocity coordinates - rank(G) - 6.

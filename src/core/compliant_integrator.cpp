@@ -132,6 +132,7 @@ struct ClusterIntegrator::Impl {
   // state being evaluated (the constraint rows need full orientations).
   JointSet joints;
   std::vector<CompliantBody> work;
+  ConstraintLoads constraint_loads;
   bool non_finite = false;
   double non_finite_t = 0.0;
   // BDF: the total momentum and the mass-weighted sum of positions of the
@@ -282,7 +283,7 @@ struct ClusterIntegrator::Impl {
         w.q = Quat(p[3], p[4], p[5], p[6]).normalized();
         w.omega = motion[i].omega;
       }
-      add_constraint_loads(work, joints, force, torque);
+      constraint_loads.add(work, joints, force, torque);
     }
     for (std::size_t i = 0; i < cluster.bodies.size(); ++i) {
       const CompliantBody& b = cluster.bodies[i];

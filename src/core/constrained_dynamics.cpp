@@ -2,8 +2,14 @@
 
 namespace ringsim {
 
-MassMatrix::MassMatrix(const std::vector<CompliantBody>& bodies)
-    : layout(bodies), mass(bodies.size()), linker(bodies.size()), inertia(bodies.size()), inv_inertia(bodies.size()) {
+MassMatrix::MassMatrix(const std::vector<CompliantBody>& bodies) { assign(bodies); }
+
+void MassMatrix::assign(const std::vector<CompliantBody>& bodies) {
+  layout.assign(bodies);
+  mass.resize(bodies.size());
+  linker.resize(bodies.size());
+  inertia.resize(bodies.size());
+  inv_inertia.resize(bodies.size());
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     const CompliantBody& b = bodies[i];
     mass[i] = b.mass;
@@ -57,6 +63,13 @@ Eigen::MatrixXd MassMatrix::dense() const {
   return m;
 }
 
+void InverseMassBlocks::clear() {
+  offset.clear();
+  width.clear();
+  inv.clear();
+  size = 0;
+}
+
 void InverseMassBlocks::add(int w, const Eigen::Matrix<double, 6, 6>& inverse) {
   offset.push_back(size);
   width.push_back(w);
@@ -65,13 +78,18 @@ void InverseMassBlocks::add(int w, const Eigen::Matrix<double, 6, 6>& inverse) {
 }
 
 Eigen::VectorXd InverseMassBlocks::times(const Eigen::VectorXd& f) const {
-  Eigen::VectorXd x(size);
+  Eigen::VectorXd x;
+  times(f, x);
+  return x;
+}
+
+void InverseMassBlocks::times(const Eigen::VectorXd& f, Eigen::VectorXd& x) const {
+  x.resize(size);
   for (std::size_t i = 0; i < offset.size(); ++i) {
     const int o = offset[i];
     if (width[i] == 6) x.segment<6>(o) = inv[i] * f.segment<6>(o);
     else x.segment<3>(o) = inv[i].topLeftCorner<3, 3>() * f.segment<3>(o);
   }
-  return x;
 }
 
 InverseMassBlocks MassMatrix::inverse_blocks() const {
@@ -102,19 +120,27 @@ void scale_symmetric(Eigen::MatrixXd& s, const Eigen::VectorXd& a) {
 MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m, bool rank_revealing)
     : MultiplierSolve(g, m.inverse_blocks(), rank_revealing) {}
 
-MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, bool rank_revealing)
-    : rows_(int(g.rows())) {
-  assemble(g, minv);
-  factor(rank_revealing);
+MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, bool rank_revealing) {
+  Options options;
+  options.rank_revealing = rank_revealing;
+  compute(g, minv, options);
 }
 
-void MultiplierSolve::factor(bool rank_revealing) {
+void MultiplierSolve::compute(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const Options& options) {
+  rows_ = int(g.rows());
+  keep_minv_gt_ = options.keep_minv_gt;
+  full_ = false;
+  assemble(g, minv, options.blocks);
+  factor(options);
+}
+
+void MultiplierSolve::factor(const Options& options) {
   if (rows_ == 0) return;
   // Equilibrated in place: s_ holds S~ from here on (s() gives S back).
   const double zero_row = kZeroRow * s_.diagonal().maxCoeff();
   scale_ = s_.diagonal().unaryExpr([zero_row](double x) { return x > zero_row ? 1.0 / std::sqrt(x) : 1.0; });
   scale_symmetric(s_, scale_);
-  if (!rank_revealing) {
+  if (!options.rank_revealing) {
     ldlt_.compute(s_);
     if (ldlt_.info() == Eigen::Success) {
       const auto d = ldlt_.vectorD();
@@ -128,19 +154,23 @@ void MultiplierSolve::factor(bool rank_revealing) {
 
 namespace {
 
-// One block's share of the assembly: body i's rows of M^-1 G^T (zero in the
-// other columns) and S += G_i M_i^-1 G_i^T on the rows that touch it, each
-// product computed once and added to both (a, c) and (c, a).
+// One block's share of the assembly: S += G_i M_i^-1 G_i^T on the rows that
+// touch block i, each product computed once and added to both (a, c) and
+// (c, a); agt (W x rows scratch) receives M_i^-1 g_r^T of the k-th touched
+// row in its column k, and, when minv_gt is given, body i's rows of M^-1 G^T
+// (zero in the other columns).
 template <int W>
-void add_block(const Eigen::MatrixXd& g, const Eigen::Matrix<double, 6, 6>& inv, int o,
-               const std::vector<int>& touched, Eigen::MatrixXd& minv_gt, Eigen::MatrixXd& s) {
+void add_block(const Eigen::MatrixXd& g, const Eigen::Matrix<double, 6, 6>& inv, int o, const int* touched, int n,
+               Eigen::Matrix<double, 6, Eigen::Dynamic>& agt, Eigen::MatrixXd* minv_gt, Eigen::MatrixXd& s) {
   const Eigen::Matrix<double, W, W> a = inv.topLeftCorner<W, W>();
-  for (const int r : touched) minv_gt.block<W, 1>(o, r) = a * g.block<1, W>(r, o).transpose();
-  for (std::size_t kc = 0; kc < touched.size(); ++kc) {
+  for (int k = 0; k < n; ++k) agt.block<W, 1>(0, k) = a * g.block<1, W>(touched[k], o).transpose();
+  if (minv_gt)
+    for (int k = 0; k < n; ++k) minv_gt->block<W, 1>(o, touched[k]) = agt.block<W, 1>(0, k);
+  for (int kc = 0; kc < n; ++kc) {
     const int c = touched[kc];
-    for (std::size_t ka = kc; ka < touched.size(); ++ka) {
+    for (int ka = kc; ka < n; ++ka) {
       const int r = touched[ka];
-      const double src = g.block<1, W>(r, o).dot(minv_gt.block<W, 1>(o, c));
+      const double src = g.block<1, W>(r, o).dot(agt.block<W, 1>(0, kc));
       s(r, c) += src;
       if (r != c) s(c, r) += src;
     }
@@ -149,22 +179,51 @@ void add_block(const Eigen::MatrixXd& g, const Eigen::Matrix<double, 6, 6>& inv,
 
 }  // namespace
 
-void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const InverseMassBlocks& minv) {
-  minv_gt_.setZero(g.cols(), rows_);
+void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const RowBlocks* blocks) {
+  if (keep_minv_gt_) minv_gt_.setZero(g.cols(), rows_);
+  else minv_gt_.resize(0, 0);
+  Eigen::MatrixXd* minv_gt = keep_minv_gt_ ? &minv_gt_ : nullptr;
   s_.setZero(rows_, rows_);
-  std::vector<int> touched;  // the rows with a nonzero in block i's columns
-  touched.reserve(rows_);
-  for (std::size_t i = 0; i < minv.offset.size(); ++i) {
-    const int o = minv.offset[i], w = minv.width[i];
-    touched.clear();
+  agt_.resize(6, rows_);
+  const int nb = int(minv.offset.size());
+  // touched_[start_[i], start_[i + 1]): the rows with entries in block i's
+  // columns, in increasing order. From `blocks` when given (O(rows));
+  // otherwise read from G (each column in one contiguous sweep).
+  start_.assign(nb + 1, 0);
+  touched_.clear();
+  if (blocks) {
+    block_at_.assign(g.cols(), -1);
+    for (int i = 0; i < nb; ++i) block_at_[minv.offset[i]] = i;
+    // A row's blocks, each once (a dihedral whose two neighbours are one
+    // linker, in a ring of two, names it twice).
+    auto distinct = [](const std::array<int, 3>& row, int k) {
+      return row[k] >= 0 && (k == 0 || row[k] != row[0]) && (k < 2 || row[k] != row[1]);
+    };
     for (int r = 0; r < rows_; ++r)
-      for (int k = 0; k < w; ++k)
-        if (g(r, o + k) != 0.0) {
-          touched.push_back(r);
-          break;
-        }
-    if (w == 6) add_block<6>(g, minv.inv[i], o, touched, minv_gt_, s_);
-    else add_block<3>(g, minv.inv[i], o, touched, minv_gt_, s_);
+      for (int k = 0; k < 3; ++k)
+        if (distinct((*blocks)[r], k)) ++start_[block_at_[(*blocks)[r][k]] + 1];
+    for (int i = 0; i < nb; ++i) start_[i + 1] += start_[i];
+    touched_.resize(start_[nb]);
+    fill_.assign(start_.begin(), start_.end() - 1);
+    for (int r = 0; r < rows_; ++r)
+      for (int k = 0; k < 3; ++k)
+        if (distinct((*blocks)[r], k)) touched_[fill_[block_at_[(*blocks)[r][k]]]++] = r;
+  } else {
+    for (int i = 0; i < nb; ++i) {
+      const int o = minv.offset[i], w = minv.width[i];
+      for (int r = 0; r < rows_; ++r) {
+        bool any = false;
+        for (int k = 0; k < w; ++k) any |= g.data()[Eigen::Index(o + k) * rows_ + r] != 0.0;
+        if (any) touched_.push_back(r);
+      }
+      start_[i + 1] = int(touched_.size());
+    }
+  }
+  for (int i = 0; i < nb; ++i) {
+    const int o = minv.offset[i], n = start_[i + 1] - start_[i];
+    const int* rows = touched_.data() + start_[i];
+    if (minv.width[i] == 6) add_block<6>(g, minv.inv[i], o, rows, n, agt_, minv_gt, s_);
+    else add_block<3>(g, minv.inv[i], o, rows, n, agt_, minv_gt, s_);
   }
 }
 
@@ -186,17 +245,29 @@ Eigen::VectorXd MultiplierSolve::row_sines2(int first) const {
 }
 
 Eigen::VectorXd MultiplierSolve::solve(const Eigen::VectorXd& rhs) const {
-  if (rows_ == 0) return Eigen::VectorXd(0);
-  Eigen::VectorXd x = scale_.cwiseProduct(rhs);
+  Eigen::VectorXd x = rhs;
+  solve_in_place(x);
+  return x;
+}
+
+void MultiplierSolve::solve_in_place(Eigen::VectorXd& x) const {
+  if (rows_ == 0) return;
+  x.array() *= scale_.array();
   if (full_) ldlt_.solveInPlace(x);
   else x = cod_.solve(x);
   x.array() *= scale_.array();
-  return x;
 }
 
 Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, const MassMatrix& m,
                                   const std::vector<Vec3>& force, const std::vector<Vec3>& torque) {
-  Eigen::VectorXd f(m.layout.size);
+  Eigen::VectorXd f;
+  generalized_force(bodies, m, force, torque, f);
+  return f;
+}
+
+void generalized_force(const std::vector<CompliantBody>& bodies, const MassMatrix& m, const std::vector<Vec3>& force,
+                       const std::vector<Vec3>& torque, Eigen::VectorXd& f) {
+  f.resize(m.layout.size);
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     const int o = m.layout.offset[i];
     f.segment<3>(o) = force[i];
@@ -204,7 +275,6 @@ Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, cons
     const Vec3& w = bodies[i].omega;
     f.segment<3>(o + 3) = torque[i] - w.cross(m.inertia[i] * w);
   }
-  return f;
 }
 
 namespace {
@@ -233,13 +303,18 @@ Eigen::Matrix<double, 6, 6> inverse_rigid_mass(const Eigen::Matrix<double, 6, 6>
 
 }  // namespace
 
-HostedProblem::HostedProblem(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m)
-    : columns(bodies, joints) {
+HostedProblem::HostedProblem(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m) {
+  assign(bodies, joints, m);
+}
+
+void HostedProblem::assign(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m) {
+  columns.assign(bodies, joints);
   // M_r = T^T M T block by block: a linker's own diag(m 1, I), plus for each
   // sphere it hosts (mass m_S at arm r) [[m_S 1, -m_S [r]x], [m_S [r]x,
   // -m_S [r]x^2]]; a sphere without a joint keeps m 1.
   const int n = int(bodies.size());
-  std::vector<Eigen::Matrix<double, 6, 6>> mass(n);
+  std::vector<Eigen::Matrix<double, 6, 6>>& mass = mass_;
+  mass.resize(n);
   for (int i = 0; i < n; ++i) {
     if (columns.host[i] >= 0) continue;
     mass[i].setZero();
@@ -256,6 +331,7 @@ HostedProblem::HostedProblem(const std::vector<CompliantBody>& bodies, const Joi
     mh.bottomLeftCorner<3, 3>() += mi * rx;
     mh.bottomRightCorner<3, 3>() -= mi * rx * rx;
   }
+  minv.clear();
   minv.offset.reserve(n);
   minv.width.reserve(n);
   minv.inv.reserve(n);
@@ -264,7 +340,13 @@ HostedProblem::HostedProblem(const std::vector<CompliantBody>& bodies, const Joi
 }
 
 Eigen::VectorXd HostedProblem::gather(const MassMatrix& m, const Eigen::VectorXd& x) const {
-  Eigen::VectorXd y(columns.size);
+  Eigen::VectorXd y;
+  gather(m, x, y);
+  return y;
+}
+
+void HostedProblem::gather(const MassMatrix& m, const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+  y.resize(columns.size);
   const int n = int(columns.host.size());
   for (int i = 0; i < n; ++i)
     if (columns.host[i] < 0) {
@@ -277,53 +359,65 @@ Eigen::VectorXd HostedProblem::gather(const MassMatrix& m, const Eigen::VectorXd
       y.segment<3>(columns.offset[i]) += e;
       y.segment<3>(columns.offset[i] + 3) += columns.arm[i].cross(e);
     }
-  return y;
 }
 
 Eigen::VectorXd HostedProblem::scatter(const MassMatrix& m, const Eigen::VectorXd& y) const {
-  Eigen::VectorXd x(m.layout.size);
+  Eigen::VectorXd x;
+  scatter(m, y, x);
+  return x;
+}
+
+void HostedProblem::scatter(const MassMatrix& m, const Eigen::VectorXd& y, Eigen::VectorXd& x) const {
+  x.resize(m.layout.size);
   for (std::size_t i = 0; i < columns.host.size(); ++i) {
     const int o = m.layout.offset[i], r = columns.offset[i];
     if (columns.host[i] >= 0) x.segment<3>(o) = y.segment<3>(r) + Vec3(y.segment<3>(r + 3)).cross(columns.arm[i]);
     else x.segment(o, m.linker[i] ? 6 : 3) = y.segment(r, m.linker[i] ? 6 : 3);
   }
-  return x;
 }
 
 void add_constraint_loads(const std::vector<CompliantBody>& bodies, const JointSet& joints,
                           std::vector<Vec3>& force, std::vector<Vec3>& torque) {
+  ConstraintLoads().add(bodies, joints, force, torque);
+}
+
+void ConstraintLoads::add(const std::vector<CompliantBody>& bodies, const JointSet& joints, std::vector<Vec3>& force,
+                          std::vector<Vec3>& torque) {
   if (joints.empty()) return;
-  const MassMatrix m(bodies);
-  const Eigen::VectorXd f = generalized_force(bodies, m, force, torque);
-  const HostedProblem p(bodies, joints, m);
-  const HostedColumns& hc = p.columns;
+  m_.assign(bodies);
+  const MassMatrix& m = m_;
+  generalized_force(bodies, m, force, torque, f_);
+  p_.assign(bodies, joints, m);
+  const HostedColumns& hc = p_.columns;
 
   // f_r = T^T (f - M c): c, a hosted sphere's acceleration at zero host
   // acceleration, only on the hosted spheres' rows.
-  Eigen::VectorXd fc = f;
+  x_ = f_;
   for (std::size_t i = 0; i < bodies.size(); ++i)
-    if (hc.host[i] >= 0) fc.segment<3>(m.layout.offset[i]) -= m.mass[i] * hc.c[i];
-  const Eigen::VectorXd fr = p.gather(m, fc);
+    if (hc.host[i] >= 0) x_.segment<3>(m.layout.offset[i]) -= m.mass[i] * hc.c[i];
+  p_.gather(m, x_, fr_);
 
-  Eigen::MatrixXd g;
-  Eigen::VectorXd bias;
-  hosted_joint_rows(bodies, hc, joints, g, bias);
-  const MultiplierSolve solve(g, p.minv);
-  Eigen::VectorXd rhs = -bias;
-  rhs.noalias() -= g * p.minv.times(fr);
-  Eigen::VectorXd load = fr;
-  load.noalias() += g.transpose() * solve.solve(rhs);
-  Eigen::VectorXd acc = p.scatter(m, p.minv.times(load));
+  hosted_joint_rows(bodies, hc, joints, g_, bias_, &blocks_);
+  MultiplierSolve::Options options;
+  options.keep_minv_gt = false;  // the loads need no M^-1 G^T
+  options.blocks = &blocks_;
+  solve_.compute(g_, p_.minv, options);
+  p_.minv.times(fr_, y_);
+  lambda_ = -bias_;
+  lambda_.noalias() -= g_ * y_;
+  solve_.solve_in_place(lambda_);
+  fr_.noalias() += g_.transpose() * lambda_;  // the reduced load f_r + G_r^T lambda
+  p_.minv.times(fr_, y_);
+  p_.scatter(m, y_, acc_);
   for (std::size_t i = 0; i < bodies.size(); ++i)
-    if (hc.host[i] >= 0) acc.segment<3>(m.layout.offset[i]) += hc.c[i];
+    if (hc.host[i] >= 0) acc_.segment<3>(m.layout.offset[i]) += hc.c[i];
 
   // Back to every body: the loads that give these accelerations, M nu' - f
   // (a linker's torque I omega' + omega x I omega, so that dL/dt is right).
-  const Eigen::VectorXd added = m.times(acc) - f;
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     const int o = m.layout.offset[i];
-    force[i] += added.segment<3>(o);
-    if (m.linker[i]) torque[i] += added.segment<3>(o + 3);
+    force[i] += Vec3(m.mass[i] * acc_.segment<3>(o) - f_.segment<3>(o));
+    if (m.linker[i]) torque[i] += Vec3(m.inertia[i] * acc_.segment<3>(o + 3) - f_.segment<3>(o + 3));
   }
 }
 

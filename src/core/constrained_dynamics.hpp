@@ -55,8 +55,10 @@ struct InverseMassBlocks {
   std::vector<Eigen::Matrix<double, 6, 6>> inv;  // the top-left width x width is used
   int size = 0;
 
+  void clear();  // no blocks (the storage is kept)
   void add(int width, const Eigen::Matrix<double, 6, 6>& inverse);
   Eigen::VectorXd times(const Eigen::VectorXd& f) const;
+  void times(const Eigen::VectorXd& f, Eigen::VectorXd& x) const;  // x = M^-1 f (x not f)
 };
 
 // Block-diagonal mass matrix in the velocity layout (world frame, present pose).
@@ -66,7 +68,9 @@ struct MassMatrix {
   std::vector<char> linker;                // 1: the body has omega columns
   std::vector<Mat3> inertia, inv_inertia;  // linkers; identity for spheres (unused)
 
+  MassMatrix() = default;
   explicit MassMatrix(const std::vector<CompliantBody>& bodies);
+  void assign(const std::vector<CompliantBody>& bodies);  // as the constructor, reusing the storage
   Eigen::VectorXd times(const Eigen::VectorXd& nu) const;           // M nu
   Eigen::VectorXd inverse_times(const Eigen::VectorXd& f) const;    // M^-1 f
   Eigen::MatrixXd inverse_times(const Eigen::MatrixXd& f) const;    // M^-1 F (column by column)
@@ -87,11 +91,25 @@ struct MassMatrix {
 // wall time by about a third (docs/ARTICULATED.md, "Cost").
 class MultiplierSolve {
  public:
+  MultiplierSolve() = default;
   MultiplierSolve(const Eigen::MatrixXd& g, const MassMatrix& m, bool rank_revealing = false);
   MultiplierSolve(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, bool rank_revealing = false);
+  struct Options {
+    bool rank_revealing = false;  // always the complete orthogonal decomposition (internal_dof)
+    // false: minv_gt() is not kept (empty), which spares zeroing and
+    // filling a columns x rows matrix a caller does not read.
+    bool keep_minv_gt = true;
+    // G's body blocks row by row (hosted_joint_rows'), so that the assembly
+    // need not read G to find them.
+    const RowBlocks* blocks = nullptr;
+  };
+  // Factors S for new G and M^-1 in this object's storage (no allocation
+  // when the sizes are those of the last call: the right-hand side's case).
+  void compute(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const Options& options);
   Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;  // minimum-norm lambda of S lambda = rhs
+  void solve_in_place(Eigen::VectorXd& x) const;  // x <- solve(x)
   int rank() const { return rows_ == 0 ? 0 : full_ ? rows_ : int(cod_.rank()); }
-  const Eigen::MatrixXd& minv_gt() const { return minv_gt_; }  // M^-1 G^T
+  const Eigen::MatrixXd& minv_gt() const { return minv_gt_; }  // M^-1 G^T (empty unless kept)
   Eigen::MatrixXd s() const;  // S = G M^-1 G^T (a copy: the solve keeps S~)
   // Each row's squared sine to the span of all the others (1 / (S~^-1)_ii),
   // rows from `first` on; empty when rank deficient (the LDL^T did not
@@ -100,11 +118,16 @@ class MultiplierSolve {
   Eigen::VectorXd row_sines2(int first = 0) const;
 
  private:
-  void assemble(const Eigen::MatrixXd& g, const InverseMassBlocks& minv);  // minv_gt_ and s_
-  void factor(bool rank_revealing);
+  void assemble(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const RowBlocks* blocks);  // minv_gt_, s_
+  void factor(const Options& options);
 
-  int rows_;
+  int rows_ = 0;
   bool full_ = false;  // the LDL^T factors serve
+  bool keep_minv_gt_ = true;
+  // Assembly scratch: touched_[start_[i], start_[i + 1]) the rows that touch
+  // block i; block_at_ a first column's block; fill_ the next free slot.
+  std::vector<int> touched_, start_, block_at_, fill_;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> agt_;  // assembly scratch: M_i^-1 g_r^T of those rows
   Eigen::VectorXd scale_;  // D^-1/2: the factors are of S~ = D^-1/2 S D^-1/2
   Eigen::MatrixXd minv_gt_, s_;  // s_: S while assembled, then S~ (equilibrated)
   Eigen::LDLT<Eigen::MatrixXd> ldlt_;
@@ -114,6 +137,8 @@ class MultiplierSolve {
 // Generalized applied force: (F_i) per sphere, (F_i, tau_i - omega_i x I_i omega_i) per linker.
 Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, const MassMatrix& m,
                                   const std::vector<Vec3>& force, const std::vector<Vec3>& torque);
+void generalized_force(const std::vector<CompliantBody>& bodies, const MassMatrix& m, const std::vector<Vec3>& force,
+                       const std::vector<Vec3>& torque, Eigen::VectorXd& f);  // into f
 
 // The constraint loads of the joints at the present pose and velocities
 // (added to force and torque: torque about each body's centre, world frame),
@@ -145,12 +170,38 @@ struct HostedProblem {
   HostedColumns columns;
   InverseMassBlocks minv;
 
+  HostedProblem() = default;
   HostedProblem(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m);
+  void assign(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m);  // reusing the storage
   // T^T x: a generalized force x (full layout) on the reduced columns (a
   // hosted sphere's force moves to its host with its moment about the host's centre).
   Eigen::VectorXd gather(const MassMatrix& m, const Eigen::VectorXd& x) const;
+  void gather(const MassMatrix& m, const Eigen::VectorXd& x, Eigen::VectorXd& y) const;  // y = T^T x (y not x)
   // T y: full velocity coordinates from reduced ones (v_S = v_H + omega_H x arm).
   Eigen::VectorXd scatter(const MassMatrix& m, const Eigen::VectorXd& y) const;
+  void scatter(const MassMatrix& m, const Eigen::VectorXd& y, Eigen::VectorXd& x) const;  // x = T y (x not y)
+
+ private:
+  std::vector<Eigen::Matrix<double, 6, 6>> mass_;  // assign's scratch: M_r block by block
+};
+
+// add_constraint_loads with its storage kept from one call to the next: an
+// articulated cluster's right-hand side is evaluated ~10 times per slice on
+// bodies and joints of unchanged sizes, so after the first call nothing is
+// allocated (the allocator's share of a Scenario 1 run was ~15 %;
+// docs/ARTICULATED.md, "Cost"). The same loads, to the last bit.
+class ConstraintLoads {
+ public:
+  void add(const std::vector<CompliantBody>& bodies, const JointSet& joints, std::vector<Vec3>& force,
+           std::vector<Vec3>& torque);
+
+ private:
+  MassMatrix m_;
+  HostedProblem p_;
+  MultiplierSolve solve_;
+  RowBlocks blocks_;
+  Eigen::MatrixXd g_;
+  Eigen::VectorXd f_, x_, fr_, y_, bias_, lambda_, acc_;
 };
 
 // Every load on the bodies of a cluster at its present state: the compliant

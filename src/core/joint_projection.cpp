@@ -10,6 +10,57 @@ namespace {
 
 double max_abs(const Eigen::VectorXd& x) { return x.size() == 0 ? 0.0 : x.cwiseAbs().maxCoeff(); }
 
+// The M-smallest correction dnu with G dnu = -r (r: one value per joint row,
+// in joint_rows' order): dnu = -M^-1 G^T S^+ r, solved with each sphere riding
+// on its host (HostedProblem). A host joint's rows fix a hosted sphere's
+// part given its host's, v_S = v_H + omega_H x arm - r_H, so every dnu that
+// meets them is T y + e with e the -r_H on the hosted spheres' rows;
+// min |T y + e|_M over G_r y = b, b = -r_O - G_O e (the other rows, whose
+// only sphere columns are a ball row's +1 on its sphere), is
+// y = y0 + M_r^-1 G_r^T lambda, y0 = -M_r^-1 T^T M e, S_r lambda = b - G_r y0:
+// the full problem's minimizer (the same feasible set), with 3 rows fewer per
+// bonded sphere. Used for the velocity projection (r = G nu) and the
+// position steps (r = C).
+class HostedCorrection {
+ public:
+  HostedCorrection(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m)
+      : joints_(joints), m_(m), p_(bodies, joints, m) {
+    Eigen::VectorXd bias;
+    hosted_joint_rows(bodies, p_.columns, joints, g_, bias);
+    solve_.compute(g_, p_.minv, MultiplierSolve::Options());
+  }
+
+  Eigen::VectorXd operator()(const Eigen::VectorXd& r) const {
+    const HostedColumns& hc = p_.columns;
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(m_.layout.size);
+    for (std::size_t k = 0; k < joints_.balls.size(); ++k)
+      if (hc.host_ball[k]) e.segment<3>(m_.layout.offset[joints_.balls[k].sphere]) = -r.segment<3>(3 * int(k));
+    Eigen::VectorXd b(hc.rows);
+    int row = 0;
+    for (std::size_t k = 0; k < joints_.balls.size(); ++k) {
+      if (hc.host_ball[k]) continue;
+      b.segment<3>(row) = -r.segment<3>(3 * int(k)) - e.segment<3>(m_.layout.offset[joints_.balls[k].sphere]);
+      row += 3;
+    }
+    const int held = hc.rows - row;
+    b.tail(held) = -r.tail(held);
+    const Eigen::VectorXd y0 = -p_.minv.times(p_.gather(m_, m_.times(e)));
+    const Eigen::VectorXd y = y0 + solve_.minv_gt() * solve_.solve(b - g_ * y0);
+    return p_.scatter(m_, y) + e;
+  }
+
+  const HostedProblem& problem() const { return p_; }
+  const Eigen::MatrixXd& g() const { return g_; }
+  const MultiplierSolve& solve() const { return solve_; }
+
+ private:
+  const JointSet& joints_;
+  const MassMatrix& m_;
+  HostedProblem p_;
+  Eigen::MatrixXd g_;
+  MultiplierSolve solve_;
+};
+
 }  // namespace
 
 VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints, bool held_sines) {
@@ -20,18 +71,13 @@ VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const 
   joint_rows(bodies, m.layout, joints, rows);
   const Eigen::VectorXd nu = velocity_vector(bodies, m.layout);
   const Eigen::VectorXd gv = rows.g * nu;
-  // Solved with each sphere riding on its host (HostedProblem): nu1 = T nu_r1
-  // satisfies the host joints, and the M-closest such velocities are
-  // nu_r0 = M_r^-1 T^T M nu, projected in the M_r metric onto G_r nu_r = 0:
-  // the minimum of |nu1 - nu|_M over G nu1 = 0, with 3 rows fewer per
-  // bonded sphere.
-  const HostedProblem p(bodies, joints, m);
-  Eigen::MatrixXd g;
-  Eigen::VectorXd bias;
-  hosted_joint_rows(bodies, p.columns, joints, g, bias);
-  const MultiplierSolve solve(g, p.minv);
-  const Eigen::VectorXd nu_r0 = p.minv.times(p.gather(m, m.times(nu)));
-  const Eigen::VectorXd nu1 = p.scatter(m, nu_r0 - solve.minv_gt() * solve.solve(g * nu_r0));
+  // The minimum of |nu1 - nu|_M over G nu1 = 0: nu plus the M-smallest
+  // correction with G dnu = -G nu, on the hosted problem.
+  const HostedCorrection correction(bodies, joints, m);
+  const Eigen::VectorXd nu1 = nu + correction(gv);
+  const HostedProblem& p = correction.problem();
+  const Eigen::MatrixXd& g = correction.g();
+  const MultiplierSolve& solve = correction.solve();
   const int balls = 3 * int(joints.balls.size()), held = joints.rows() - balls;
   if (held_sines && held > 0) {
     // A held row's squared sine to the span of every other row, in maximal
@@ -117,10 +163,7 @@ PositionProjection project_positions(std::vector<CompliantBody>& bodies, const J
     r.residual_after = res;
     if (res <= tolerance || r.iterations >= max_iterations) break;
     const MassMatrix m(bodies);
-    JointRows rows;
-    joint_rows(bodies, m.layout, joints, rows);
-    const MultiplierSolve solve(rows.g, m);
-    const Eigen::VectorXd dnu = -solve.minv_gt() * solve.solve(c);
+    const Eigen::VectorXd dnu = HostedCorrection(bodies, joints, m)(c);
     last = bodies;
     last_moved2 = moved2;
     displace(bodies, m.layout, dnu);

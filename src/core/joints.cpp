@@ -119,8 +119,11 @@ double min_joint_sine(const std::vector<CompliantBody>& bodies, const JointSet& 
   return m;
 }
 
-VelocityLayout::VelocityLayout(const std::vector<CompliantBody>& bodies) {
+VelocityLayout::VelocityLayout(const std::vector<CompliantBody>& bodies) { assign(bodies); }
+
+void VelocityLayout::assign(const std::vector<CompliantBody>& bodies) {
   offset.resize(bodies.size());
+  size = 0;
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     offset[i] = size;
     size += width(bodies[i].shape);
@@ -198,9 +201,18 @@ void held_dihedral_gradient(const Vec3& u, const Vec3& n0, const Vec3& n1, doubl
   g_1 = cp * ga_1 - sp * gb_1;
 }
 
-HostedColumns::HostedColumns(const std::vector<CompliantBody>& bodies, const JointSet& joints)
-    : offset(bodies.size(), -1), host(bodies.size(), -1), arm(bodies.size()), c(bodies.size()),
-      host_ball(joints.balls.size(), 0), rows(joints.rows()) {
+HostedColumns::HostedColumns(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+  assign(bodies, joints);
+}
+
+void HostedColumns::assign(const std::vector<CompliantBody>& bodies, const JointSet& joints) {
+  offset.assign(bodies.size(), -1);
+  host.assign(bodies.size(), -1);
+  arm.resize(bodies.size());
+  c.resize(bodies.size());
+  host_ball.assign(joints.balls.size(), 0);
+  size = 0;
+  rows = joints.rows();
   for (std::size_t k = 0; k < joints.balls.size(); ++k) {
     const BallJoint& j = joints.balls[k];
     if (host[j.sphere] >= 0) continue;
@@ -227,8 +239,13 @@ namespace {
 // at the joint point (HostedColumns). `hosted` null: every body has its
 // own columns and every row is written.
 void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>& offset,
-                const HostedColumns* hosted, const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias) {
+                const HostedColumns* hosted, const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias,
+                RowBlocks* blocks) {
   int row = 0;
+  if (blocks) blocks->resize(g.rows());
+  auto mark = [blocks](int r, int a, int b, int c) {
+    if (blocks) (*blocks)[r] = {a, b, c};
+  };
 
   // Ball joint: C' = v_S - v_L - omega_L x r = v_S - v_L + [r]x omega_L,
   // r = R a; (dG/dt) nu = [r']x omega_L = (omega_L x r) x omega_L. A hosted
@@ -248,6 +265,7 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     }
     g.block<3, 3>(row, offset[j.linker]) -= Mat3::Identity();
     g.block<3, 3>(row, offset[j.linker] + 3) += cross_matrix(r);
+    for (int i = 0; i < 3; ++i) mark(row + i, os, offset[j.linker], -1);
     row += 3;
   }
 
@@ -263,6 +281,7 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     g.block<1, 3>(row, offset[a.linker_b] + 3) += c.transpose() / s0;
     const Vec3 dc = la.omega.cross(na).cross(nb) + na.cross(lb.omega.cross(nb));
     bias[row] = -dc.dot(la.omega - lb.omega) / s0;
+    mark(row, offset[a.linker_a], offset[a.linker_b], -1);
     ++row;
   }
 
@@ -291,6 +310,7 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     const double ddc1 = ddu.dot(n1) + 2.0 * du.dot(dn1) + u.dot(ddn1);
     const double ddb = ddn0.dot(n1) + 2.0 * dn0.dot(dn1) + n0.dot(ddn1) - (ddc0 * c1 + 2.0 * dc0 * dc1 + c0 * ddc1);
     bias[row] = cp * dda - sp * ddb;
+    mark(row, offset[d.linker], offset[d.nb0], offset[d.nb1]);
     ++row;
   }
 }
@@ -302,14 +322,14 @@ void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& 
   out.c = joint_residual(bodies, joints);
   out.g.setZero(joints.rows(), layout.size);
   out.bias.setZero(joints.rows());
-  write_rows(bodies, layout.offset, nullptr, joints, out.g, out.bias);
+  write_rows(bodies, layout.offset, nullptr, joints, out.g, out.bias, nullptr);
 }
 
 void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedColumns& columns,
-                       const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias) {
+                       const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias, RowBlocks* blocks) {
   g.setZero(columns.rows, columns.size);
   bias.setZero(columns.rows);
-  write_rows(bodies, columns.offset, &columns, joints, g, bias);
+  write_rows(bodies, columns.offset, &columns, joints, g, bias, blocks);
 }
 
 }  // namespace ringsim

@@ -49,6 +49,7 @@
 // vector r fixed in it at omega x r; d(f)/dt = G_omega . omega defines the
 // omega columns.
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -134,6 +135,7 @@ struct VelocityLayout {
 
   VelocityLayout() = default;
   explicit VelocityLayout(const std::vector<CompliantBody>& bodies);
+  void assign(const std::vector<CompliantBody>& bodies);  // as the constructor, reusing the storage
   static int width(Shape s) { return s == Shape::Sphere ? 3 : 6; }
 };
 
@@ -185,11 +187,20 @@ struct HostedColumns {
   int size = 0;                 // columns: 6 per linker, 3 per sphere without a joint
   int rows = 0;                 // the joints' rows less the host joints'
 
+  HostedColumns() = default;
   HostedColumns(const std::vector<CompliantBody>& bodies, const JointSet& joints);
+  void assign(const std::vector<CompliantBody>& bodies, const JointSet& joints);  // reusing the storage
 };
+// Per row of G, the first columns of the (at most three) bodies it has
+// entries in, -1 where a row has fewer: G's sparsity by body blocks, known
+// from the joints without reading G.
+using RowBlocks = std::vector<std::array<int, 3>>;
+
 // G and the bias (dG/dt) nu on those columns, in joint_rows' row order
-// without the host joints' rows (no residual: the right-hand side needs none).
+// without the host joints' rows (no residual: the right-hand side needs
+// none); blocks, when given, receives each row's body blocks.
 void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedColumns& columns,
-                       const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias);
+                       const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias,
+                       RowBlocks* blocks = nullptr);
 
 }  // namespace ringsim
