@@ -19,7 +19,9 @@
 //    T' = T - (G nu)^T S^+ (G nu) / 2 <= T;
 //  - positions: Gauss-Newton steps dnu = -M^-1 G^T S^+ C applied as a
 //    displacement (core/joints.hpp, displace), until max |C| <= tolerance,
-//    then the velocity projection at the new pose. A step keeps the centre of
+//    then the velocity projection at the new pose; each step solved on the
+//    hosted problem like the velocities (the same M-smallest correction,
+//    with G dnu = -C in place of -G nu). A step keeps the centre of
 //    mass (sum of m dx = 0) and the total angular momentum's first-order
 //    change is zero for the same reason as above.
 
