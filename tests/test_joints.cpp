@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <random>
 #include <vector>
 
 #include <Eigen/LU>
@@ -19,6 +20,7 @@
 #include "core/constrained_dynamics.hpp"
 #include "core/joint_projection.hpp"
 #include "core/joints.hpp"
+#include "core/pivoted_ldlt.hpp"
 
 namespace ringsim {
 namespace {
@@ -172,6 +174,17 @@ TEST(ConstrainedDynamics, RedundantRowsAreTolerated) {
   const Eigen::VectorXd lambda = MultiplierSolve(both.g, m).solve(
       -both.bias - both.g * m.inverse_times(generalized_force(a.cluster.bodies, m, f, tau)));
   EXPECT_LT((lambda.segment<3>(0) - lambda.segment<3>(6)).norm(), 1e-9);
+  // Any solution (the loads' path): the pivoted LDL^T cut short at its three
+  // negligible pivots, a different lambda with the same load G^T lambda.
+  MultiplierSolve any;
+  MultiplierSolve::Options options;
+  options.any_solution = true;
+  any.compute(both.g, m.inverse_blocks(), options);
+  EXPECT_EQ(any.rank(), int(both.g.rows()) - 3);
+  const Eigen::VectorXd lambda_any = any.solve(
+      -both.bias - both.g * m.inverse_times(generalized_force(a.cluster.bodies, m, f, tau)));
+  EXPECT_GT((lambda_any - lambda).norm(), 1e-3 * lambda.norm());
+  EXPECT_LT((both.g.transpose() * (lambda_any - lambda)).norm(), 1e-10 * (both.g.transpose() * lambda).norm());
 
   // The constrained accelerations satisfy G nu' + bias = 0.
   JointRows rows;
@@ -318,6 +331,59 @@ TEST(ConstrainedDynamics, RowBlocksGiveTheSameAssembly) {
   }
   const Eigen::MatrixXd s = g * minv * g.transpose();
   EXPECT_LT((given.s() - s).norm(), 1e-12 * s.norm());
+}
+
+// The pivoted LDL^T (core/pivoted_ldlt.hpp) on equilibrated Gram matrices
+// S~ = D^-1/2 G G^T D^-1/2 of random rows: full rank, the solve against a
+// dense one and the pivots in decreasing order (each a squared sine, so in
+// (0, 1]); with rows repeated and combined (rank 5 of 9), the rank, a
+// consistent system solved exactly with the dropped unknowns zero, where
+// Eigen's LDLT (pivoting on the diagonal as it stood) meets its zero pivots
+// before the end.
+TEST(PivotedLdlt, SolvesAndRevealsTheRank) {
+  std::mt19937_64 gen(11);
+  std::normal_distribution<double> N(0.0, 1.0);
+  auto random_rows = [&](int r, int c) {
+    Eigen::MatrixXd g(r, c);
+    for (int i = 0; i < r; ++i)
+      for (int j = 0; j < c; ++j) g(i, j) = N(gen);
+    return g;
+  };
+  auto equilibrated = [](const Eigen::MatrixXd& g) {
+    Eigen::MatrixXd s = g * g.transpose();
+    const Eigen::VectorXd d = s.diagonal().cwiseSqrt().cwiseInverse();
+    return Eigen::MatrixXd(d.asDiagonal() * s * d.asDiagonal());
+  };
+  const Eigen::MatrixXd full = equilibrated(random_rows(9, 14));
+  PivotedLdlt f;
+  f.compute(full, 1e-7);
+  ASSERT_EQ(f.rank(), 9);
+  for (int k = 1; k < 9; ++k) EXPECT_LE(f.pivots()[k], f.pivots()[k - 1]);
+  EXPECT_LE(f.pivots()[0], 1.0 + 1e-15);
+  Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(9, -1.0, 2.0), x = b;
+  f.solve_in_place(x);
+  EXPECT_LT((x - full.fullPivLu().solve(b)).norm(), 1e-10 * x.norm());
+
+  Eigen::MatrixXd g(9, 14);
+  g.topRows(5) = random_rows(5, 14);
+  g.row(5) = g.row(0);
+  g.row(6) = g.row(1) - 0.5 * g.row(3);
+  g.row(7) = 2.0 * g.row(2) + g.row(4);
+  g.row(8) = g.row(1);
+  const Eigen::MatrixXd deficient = equilibrated(g);
+  f.compute(deficient, 1e-7);
+  EXPECT_EQ(f.rank(), 5);
+  const Eigen::VectorXd consistent = deficient * Eigen::VectorXd::LinSpaced(9, 0.5, -1.5);
+  x = consistent;
+  f.solve_in_place(x);
+  EXPECT_LT((deficient * x - consistent).norm(), 1e-12 * consistent.norm());
+  EXPECT_EQ(int((x.array() == 0.0).count()), 4);  // the dropped unknowns
+
+  const Eigen::LDLT<Eigen::MatrixXd> eigen(deficient);
+  const Eigen::VectorXd d = eigen.vectorD().cwiseAbs();
+  int first_small = 0;
+  while (d[first_small] > 1e-7 * d.maxCoeff()) ++first_small;
+  EXPECT_LT(first_small, 5) << "Eigen's LDLT reached a negligible pivot only after all kept ones";
 }
 
 // Internal degrees of freedom = velocity coordinates - rank(G) - 6.

@@ -129,7 +129,7 @@ MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const InverseMassBloc
 void MultiplierSolve::compute(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const Options& options) {
   rows_ = int(g.rows());
   keep_minv_gt_ = options.keep_minv_gt;
-  full_ = false;
+  full_ = cut_short_ = false;
   assemble(g, minv, options.blocks);
   factor(options);
 }
@@ -141,12 +141,10 @@ void MultiplierSolve::factor(const Options& options) {
   scale_ = s_.diagonal().unaryExpr([zero_row](double x) { return x > zero_row ? 1.0 / std::sqrt(x) : 1.0; });
   scale_symmetric(s_, scale_);
   if (!options.rank_revealing) {
-    ldlt_.compute(s_);
-    if (ldlt_.info() == Eigen::Success) {
-      const auto d = ldlt_.vectorD();
-      full_ = d.minCoeff() > kRankThreshold * d.cwiseAbs().maxCoeff();
-    }
-    if (full_) return;
+    ldlt_.compute(s_, kRankThreshold);
+    full_ = ldlt_.rank() == rows_;
+    cut_short_ = !full_ && options.any_solution;
+    if (full_ || cut_short_) return;
   }
   cod_.setThreshold(kRankThreshold);
   cod_.compute(s_);
@@ -240,8 +238,14 @@ Eigen::VectorXd MultiplierSolve::row_sines2(int first) const {
   // unit diagonal: the Schur complement of the other rows); the columns
   // from `first` on only.
   const int k = rows_ - first;
-  const Eigen::MatrixXd cols = ldlt_.solve(Eigen::MatrixXd::Identity(rows_, rows_).rightCols(k));
-  return cols.bottomRows(k).diagonal().cwiseInverse();
+  Eigen::VectorXd s2(k), e(rows_);
+  for (int i = 0; i < k; ++i) {
+    e.setZero();
+    e[first + i] = 1.0;
+    ldlt_.solve_in_place(e);
+    s2[i] = 1.0 / e[first + i];
+  }
+  return s2;
 }
 
 Eigen::VectorXd MultiplierSolve::solve(const Eigen::VectorXd& rhs) const {
@@ -253,7 +257,7 @@ Eigen::VectorXd MultiplierSolve::solve(const Eigen::VectorXd& rhs) const {
 void MultiplierSolve::solve_in_place(Eigen::VectorXd& x) const {
   if (rows_ == 0) return;
   x.array() *= scale_.array();
-  if (full_) ldlt_.solveInPlace(x);
+  if (full_ || cut_short_) ldlt_.solve_in_place(x);
   else x = cod_.solve(x);
   x.array() *= scale_.array();
 }
@@ -401,6 +405,7 @@ void ConstraintLoads::add(const std::vector<CompliantBody>& bodies, const JointS
   MultiplierSolve::Options options;
   options.keep_minv_gt = false;  // the loads need no M^-1 G^T
   options.blocks = &blocks_;
+  options.any_solution = true;  // the loads read G^T lambda only
   solve_.compute(g_, p_.minv, options);
   p_.minv.times(fr_, y_);
   lambda_ = -bias_;

@@ -32,6 +32,7 @@
 #include <Eigen/QR>
 
 #include "core/joints.hpp"
+#include "core/pivoted_ldlt.hpp"
 
 namespace ringsim {
 
@@ -83,11 +84,12 @@ struct MassMatrix {
 // each added on the rows with a nonzero in those columns only; it is exactly
 // symmetric (each product G_a M_i^-1 G_c^T is added to both (a, c) and (c, a)).
 // S is symmetric positive semi-definite. A Cholesky factorization (LDL^T
-// with diagonal pivoting) serves when its pivots all stay above
-// kRankThreshold x the largest (full rank: the solution is unique and the
-// same); otherwise, and always when rank_revealing (internal_dof's rank
-// decision), the complete orthogonal decomposition gives the minimum-norm
-// solution. Measured: the LDL^T path cuts an articulated Scenario 1 run's
+// with diagonal pivoting on the Schur complement, core/pivoted_ldlt.hpp)
+// serves when its pivots all stay above kRankThreshold x the largest (full
+// rank: the solution is unique and the same); otherwise, and always when
+// rank_revealing (internal_dof's rank decision), the complete orthogonal
+// decomposition gives the minimum-norm solution, unless any_solution lets
+// the factorization serve cut short. Measured: the LDL^T path cuts an articulated Scenario 1 run's
 // wall time by about a third (docs/ARTICULATED.md, "Cost").
 class MultiplierSolve {
  public:
@@ -102,13 +104,21 @@ class MultiplierSolve {
     // G's body blocks row by row (hosted_joint_rows'), so that the assembly
     // need not read G to find them.
     const RowBlocks* blocks = nullptr;
+    // Any solution, not the minimum-norm one, where S is rank deficient:
+    // the pivoted LDL^T cut short (the dropped rows' multipliers zero)
+    // instead of the complete orthogonal decomposition. For a right-hand
+    // side in the range of S every solution gives the same G^T lambda
+    // (S d = 0 implies G^T d = 0), which is all the constraint loads use;
+    // off it (the integrator's drift on redundant rows) the two differ at
+    // the order of that drift.
+    bool any_solution = false;
   };
   // Factors S for new G and M^-1 in this object's storage (no allocation
   // when the sizes are those of the last call: the right-hand side's case).
   void compute(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const Options& options);
   Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;  // minimum-norm lambda of S lambda = rhs
   void solve_in_place(Eigen::VectorXd& x) const;  // x <- solve(x)
-  int rank() const { return rows_ == 0 ? 0 : full_ ? rows_ : int(cod_.rank()); }
+  int rank() const { return rows_ == 0 ? 0 : full_ || cut_short_ ? ldlt_.rank() : int(cod_.rank()); }
   const Eigen::MatrixXd& minv_gt() const { return minv_gt_; }  // M^-1 G^T (empty unless kept)
   Eigen::MatrixXd s() const;  // S = G M^-1 G^T (a copy: the solve keeps S~)
   // Each row's squared sine to the span of all the others (1 / (S~^-1)_ii),
@@ -122,7 +132,8 @@ class MultiplierSolve {
   void factor(const Options& options);
 
   int rows_ = 0;
-  bool full_ = false;  // the LDL^T factors serve
+  bool full_ = false;       // the LDL^T factors serve, full rank
+  bool cut_short_ = false;  // any_solution: they serve cut short (rank deficient)
   bool keep_minv_gt_ = true;
   // Assembly scratch: touched_[start_[i], start_[i + 1]) the rows that touch
   // block i; block_at_ a first column's block; fill_ the next free slot.
@@ -130,7 +141,7 @@ class MultiplierSolve {
   Eigen::Matrix<double, 6, Eigen::Dynamic> agt_;  // assembly scratch: M_i^-1 g_r^T of those rows
   Eigen::VectorXd scale_;  // D^-1/2: the factors are of S~ = D^-1/2 S D^-1/2
   Eigen::MatrixXd minv_gt_, s_;  // s_: S while assembled, then S~ (equilibrated)
-  Eigen::LDLT<Eigen::MatrixXd> ldlt_;
+  PivotedLdlt ldlt_;
   Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod_;
 };
 
