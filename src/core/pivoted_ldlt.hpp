@@ -1,11 +1,13 @@
 #pragma once
 // LDL^T of a symmetric positive semi-definite matrix with diagonal pivoting
-// on the Schur complement (right-looking: at step k the largest remaining
-// diagonal of the updated matrix is taken), stopped where the largest
+// on the Schur complement (at step k the largest diagonal of the matrix
+// updated by the k pivots before is taken), stopped where the largest
 // remaining pivot falls to `cut` x the first: P A P^T = L D L^T on the
 // first rank() pivots, and what is left is below the cut (Higham, "Accuracy
 // and Stability of Numerical Algorithms", 2nd ed., sec. 10.3, the pivoted
-// Cholesky factorization; here without square roots).
+// Cholesky factorization; here without square roots, and left-looking as
+// LAPACK's dpstf2: only the Schur complement's diagonal is updated ahead,
+// each column of L is one matrix-vector product when it is reached).
 //
 // Why not Eigen::LDLT: it also pivots on the diagonal, but on the diagonal
 // as it stood before the factorization (it updates a column only when it
@@ -39,6 +41,7 @@ class PivotedLdlt {
   Eigen::MatrixXd a_;  // L below the diagonal (unit diagonal implied), columns < rank_
   Eigen::VectorXd d_;
   std::vector<int> perm_;  // row i of P A P^T is row perm_[i] of A
+  Eigen::VectorXd schur_;           // compute's scratch: the Schur complement's diagonal
   mutable Eigen::VectorXd work_;
   int rank_ = 0;
 };
