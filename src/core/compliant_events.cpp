@@ -129,27 +129,40 @@ bool Simulation::begin_slice(int g, double t) {
   // retry that far from it (seen: a Scenario 2 ring of four held angles,
   // 8e-3 rad apart at t = 3510, which no projection could close: the run
   // ended in an error).
+  // The joints that belong to the start state, kept until an attempt
+  // changes them (release_weak_rows, readmit_rows).
   const bool articulated = G.articulated;
-  const JointSet joints0 = articulated ? G.joints : JointSet();
-  const JointSet released0 = articulated ? G.released : JointSet();
-  const double readmit0 = G.readmit_above;
-  auto restore_joints = [&] {
+  JointSet joints0, released0;
+  double readmit0 = 0.0;
+  bool changed = false;
+  auto save_joints = [&] {
     if (!articulated) return;
+    joints0 = G.joints;
+    released0 = G.released;
+    readmit0 = G.readmit_above;
+    changed = false;
+  };
+  auto restore_joints = [&] {
+    if (!changed) return false;
     G.joints = joints0;
     G.released = released0;
     G.readmit_above = readmit0;
+    changed = false;
+    return true;
   };
+  save_joints();
   // Back to the slice start (a fresh integrator: a failed one cannot go
-  // on), release what is weak there, and try half the slice: its end's test
-  // (release_weak_rows) then catches a weak row in time, and a shorter
-  // slice leaves the integrator's error control less room to drift.
+  // on), release what is weak there (joints of the start state, so saved),
+  // and try half the slice: its end's test (release_weak_rows) then catches
+  // a weak row in time, and a shorter slice leaves the integrator's error
+  // control less room to drift.
   auto retry_halved = [&] {
     restore_joints();
     CompliantCluster st = G.integ->state();
     st.bodies = start.bodies;
     retire_integrator(G);
     G.integ = std::make_unique<ClusterIntegrator>(st, t, integrator_options(), G.joints);
-    release_weak_rows(G, true, -1.0);
+    if (release_weak_rows(G, true, -1.0)) save_joints();
     G.end_cached = false;
     D *= 0.5;
     ++stats_.failed_slices;
@@ -177,6 +190,7 @@ bool Simulation::begin_slice(int g, double t) {
       pr = G.integ->project_onto_joints(tol, true);
       const bool stalled = !(pr.residual_after <= tol) && stalled_on_held_row(G);
       if (release_weak_rows(G, stalled, pr.velocities.weakest_held_sine2) || readmit_rows(G)) {
+        changed = true;
         const double before = pr.residual_before;
         pr = G.integ->project_onto_joints(tol);
         pr.residual_before = std::max(before, pr.residual_before);
@@ -225,11 +239,8 @@ bool Simulation::begin_slice(int g, double t) {
       break;
     }
     G.integ->mutable_state().bodies = start.bodies;
-    if (articulated) {
-      restore_joints();
-      G.integ->set_joints(G.joints);
-    }
     G.integ->reinit_at(t);
+    if (restore_joints()) G.integ->set_joints(G.joints);
     G.end_cached = false;
     D *= 0.5;
   }

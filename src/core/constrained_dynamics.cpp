@@ -192,20 +192,15 @@ void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const InverseMassBlocks
   if (blocks) {
     block_at_.assign(g.cols(), -1);
     for (int i = 0; i < nb; ++i) block_at_[minv.offset[i]] = i;
-    // A row's blocks, each once (a dihedral whose two neighbours are one
-    // linker, in a ring of two, names it twice).
-    auto distinct = [](const std::array<int, 3>& row, int k) {
-      return row[k] >= 0 && (k == 0 || row[k] != row[0]) && (k < 2 || row[k] != row[1]);
-    };
     for (int r = 0; r < rows_; ++r)
-      for (int k = 0; k < 3; ++k)
-        if (distinct((*blocks)[r], k)) ++start_[block_at_[(*blocks)[r][k]] + 1];
+      for (const int o : (*blocks)[r])
+        if (o >= 0) ++start_[block_at_[o] + 1];
     for (int i = 0; i < nb; ++i) start_[i + 1] += start_[i];
     touched_.resize(start_[nb]);
     fill_.assign(start_.begin(), start_.end() - 1);
     for (int r = 0; r < rows_; ++r)
-      for (int k = 0; k < 3; ++k)
-        if (distinct((*blocks)[r], k)) touched_[fill_[block_at_[(*blocks)[r][k]]]++] = r;
+      for (const int o : (*blocks)[r])
+        if (o >= 0) touched_[fill_[block_at_[o]]++] = r;
   } else {
     for (int i = 0; i < nb; ++i) {
       const int o = minv.offset[i], w = minv.width[i];

@@ -26,8 +26,11 @@ class HostedCorrection {
   HostedCorrection(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m)
       : joints_(joints), m_(m), p_(bodies, joints, m) {
     Eigen::VectorXd bias;
-    hosted_joint_rows(bodies, p_.columns, joints, g_, bias);
-    solve_.compute(g_, p_.minv, MultiplierSolve::Options());
+    RowBlocks blocks;
+    hosted_joint_rows(bodies, p_.columns, joints, g_, bias, &blocks);
+    MultiplierSolve::Options options;
+    options.blocks = &blocks;
+    solve_.compute(g_, p_.minv, options);
   }
 
   Eigen::VectorXd operator()(const Eigen::VectorXd& r) const {

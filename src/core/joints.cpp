@@ -243,8 +243,10 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
                 RowBlocks* blocks) {
   int row = 0;
   if (blocks) blocks->resize(g.rows());
+  // Each body block once (-1 for a repeat: a dihedral whose two
+  // neighbours are one linker, in a ring of two, names it twice).
   auto mark = [blocks](int r, int a, int b, int c) {
-    if (blocks) (*blocks)[r] = {a, b, c};
+    if (blocks) (*blocks)[r] = {a, b == a ? -1 : b, c == a || c == b ? -1 : c};
   };
 
   // Ball joint: C' = v_S - v_L - omega_L x r = v_S - v_L + [r]x omega_L,

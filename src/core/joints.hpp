@@ -192,8 +192,8 @@ struct HostedColumns {
   void assign(const std::vector<CompliantBody>& bodies, const JointSet& joints);  // reusing the storage
 };
 // Per row of G, the first columns of the (at most three) bodies it has
-// entries in, -1 where a row has fewer: G's sparsity by body blocks, known
-// from the joints without reading G.
+// entries in, each once, -1 where a row has fewer: G's sparsity by body
+// blocks, known from the joints without reading G.
 using RowBlocks = std::vector<std::array<int, 3>>;
 
 // G and the bias (dG/dt) nu on those columns, in joint_rows' row order
