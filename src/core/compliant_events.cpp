@@ -80,6 +80,20 @@ void Simulation::cut_group(int g, double t) {
   CompliantCluster& st = G.integ->mutable_state();
   for (std::size_t k = 0; k < G.members.size(); ++k)
     st.bodies[k] = member_state(bodies_, G.members[k], t, st.bodies[k], G.shift, G.articulated);
+  if (G.slice_changed_joints && t < G.tb) {
+    // The slice's end released a row or held one again at the value it had
+    // there; before the end the slice moved on the joints of its start, and
+    // so does the state from the tracks here. Held from this state a row
+    // readmitted at the end would be off by all it moved in between (seen:
+    // a Scenario 3 dihedral 1.6e-3 from its readmitted value after a cut,
+    // 1e-3 clear of another's span, which no projection could close: the
+    // run ended in an error at t = 2156).
+    G.joints = std::move(G.slice_joints);
+    G.released = std::move(G.slice_released);
+    G.readmit_above = G.slice_readmit_above;
+    G.integ->set_joints(G.joints);
+  }
+  G.slice_changed_joints = false;
   if (G.articulated) {
     // The tracks interpolate a linker's roll: fit the rolls to the joints
     // (invisible to the event loop). They keep the joints' velocities only to
@@ -243,6 +257,13 @@ bool Simulation::begin_slice(int g, double t) {
     if (restore_joints()) G.integ->set_joints(G.joints);
     G.end_cached = false;
     D *= 0.5;
+  }
+  // The joints the slice moved on, for a cut before its end.
+  G.slice_changed_joints = changed;
+  if (changed) {
+    G.slice_joints = std::move(joints0);
+    G.slice_released = std::move(released0);
+    G.slice_readmit_above = readmit0;
   }
   // The next slice starts from the length the tolerance allowed, and doubles
   // back towards the longest slice while the estimate (~ D^4) leaves room.
@@ -449,6 +470,7 @@ void Simulation::add_group_bond(CompliantCluster& model, JointSet& joints, int s
 void Simulation::start_group(int g, CompliantCluster model, double t) {
   CompliantGroup& G = cgroups_[g];
   retire_integrator(G);
+  G.slice_changed_joints = false;  // new joints: no slice has run on them
   if (G.articulated) {
     // Model no more than the scene needs: joints that leave no internal
     // freedom make one rigid body (exact free rotation), until the next

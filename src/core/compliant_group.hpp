@@ -74,6 +74,13 @@ struct CompliantGroup {
   // they stray from their held values (SimStats::released_residual).
   JointSet released;
   double readmit_above = 0.0;  // Simulation::readmit_rows tests them when one strays above this
+  // The joints in force during the present slice, kept when its end changed
+  // them (a row released or held again there, Simulation::begin_slice): a
+  // cut inside the slice takes the state back to a time before that change,
+  // so it takes these back too (Simulation::cut_group).
+  bool slice_changed_joints = false;
+  JointSet slice_joints, slice_released;
+  double slice_readmit_above = 0.0;
   std::vector<Quat> frozen_rot;
 };
 
