@@ -17,6 +17,8 @@
 #include <string>
 #include <thread>
 
+#include <nlohmann/json.hpp>
+
 #include "analysis/ensemble_summary.hpp"
 #include "ensemble/aggregate_command.hpp"
 #include "ensemble/results_file.hpp"
@@ -512,4 +514,57 @@ TEST_F(Ensemble, MpirunOnATerminalShowsTheLiveBarByDefault) {
   ASSERT_EQ(piped.status, 0) << piped.err;
   EXPECT_EQ(piped.err.find("\r["), std::string::npos) << piped.err;
   EXPECT_NE(piped.err.find("2/2 replicates done"), std::string::npos) << piped.err;
+}
+
+// A file written before the articulated columns (failed_slices ...
+// end_articulated_bodies) existed: tests/data/results_v1.h5, two replicates
+// of a small articulated Scenario 1 written by 91f1b59. HDF5 matches
+// compound members by name, so it reads with the columns it has and the
+// new ones zero, and aggregates.
+TEST_F(Ensemble, AFileWithoutTheArticulatedColumnsStillReads) {
+  const std::string f = std::string(RINGSIM_TESTDATA_DIR) + "/results_v1.h5";
+  const ResultsContent c = read_results(f);
+  ASSERT_EQ(c.records.size(), 2u);
+  EXPECT_EQ(c.records[0].N_t, 16);
+  EXPECT_EQ(c.records[1].N_t, 19);
+  EXPECT_EQ(c.records[0].bonds, 44);
+  for (const ReplicateRecord& r : c.records) {
+    EXPECT_EQ(r.status, static_cast<std::int8_t>(RecordStatus::Ok));
+    EXPECT_EQ(r.failed_slices, 0);
+    EXPECT_EQ(r.max_residual_after_projection, 0.0);
+    EXPECT_EQ(r.end_articulated_bodies, 0);
+  }
+  const std::vector<AggregateGroup> g = aggregate_files({f});
+  ASSERT_EQ(g.size(), 1u);
+  EXPECT_EQ(summarize_ensemble(g[0].records).n_ok, 2);
+}
+
+// `ringsim run` keeps how closely an articulated replicate held its joints:
+// the columns equal `replicate --json`'s "articulated" block for the same
+// replicate, and a welded run leaves them zero.
+TEST_F(Ensemble, ArticulatedColumnsAreTheReplicatesOwn) {
+  const std::string small =
+      " --set init.spheres=30 --set init.linkers=30 --set geometry.box_length=20 --set run.t_max=30";
+  const std::string f = path("articulated.h5"), w = path("welded_cols.h5");
+  ASSERT_EQ(shell(binary() + " run --replicates 2 --seed 3" + small + " -o " + f).status, 0);
+  const Cmd js = shell_apart(binary() + " replicate --seed 3 --replicate 1 --json" + small);
+  ASSERT_EQ(js.status, 0) << js.err;
+  const nlohmann::json a = nlohmann::json::parse(js.out).at("articulated");
+  const ReplicateRecord r = read_results(f).records[1];
+  EXPECT_EQ(r.failed_slices, a.at("failed_slices").get<std::int64_t>());
+  EXPECT_EQ(r.released_held_rows, a.at("released_held_rows").get<std::int64_t>());
+  EXPECT_EQ(r.readmitted_held_rows, a.at("readmitted_held_rows").get<std::int64_t>());
+  EXPECT_EQ(r.max_residual_after_projection, a.at("max_residual_after_projection").get<double>());
+  EXPECT_EQ(r.max_cut_residual, a.at("max_cut_residual").get<double>());
+  EXPECT_EQ(r.max_released_residual, a.at("max_released_residual").get<double>());
+  EXPECT_EQ(r.max_projection, a.at("max_projection").get<double>());
+  EXPECT_EQ(r.end_rigid_bodies, a.at("clusters_at_end").at("rigid_bodies").get<std::int32_t>());
+  EXPECT_EQ(r.end_articulated_bodies, a.at("clusters_at_end").at("articulated_bodies").get<std::int32_t>());
+  EXPECT_GT(r.end_articulated_bodies, 0);  // the scene forms integrated clusters by t = 30
+  EXPECT_GT(r.max_projection, 0.0);
+  EXPECT_LT(r.max_residual_after_projection, 1e-8);
+  ASSERT_EQ(shell(binary() + " run --replicates 1 --seed 3" + small + " --set bonding.joint=welded -o " + w).status, 0);
+  const ReplicateRecord x = read_results(w).records[0];
+  EXPECT_EQ(x.end_articulated_bodies + x.end_rigid_bodies, 0);
+  EXPECT_EQ(x.max_projection, 0.0);
 }

@@ -51,6 +51,15 @@ struct ReplicateRecord {
   std::int32_t bonds = 0, closure_bonds = 0;
   std::int64_t mser_truncation = -1;  // index into the N_t series when steady_state, else -1
   double packing_fraction = 0.0, mixing = 0.0;
+
+  // Articulated bonds (bonding.joint = articulated; zero otherwise): how
+  // closely the joints were held, as `replicate --json`'s "articulated"
+  // block names them (docs/OUTPUT.md). Files written before these columns
+  // read them as zero.
+  std::int64_t failed_slices = 0, released_held_rows = 0, readmitted_held_rows = 0;
+  double max_residual_after_projection = 0.0, max_cut_residual = 0.0, max_released_residual = 0.0;
+  double max_projection = 0.0;
+  std::int32_t end_rigid_bodies = 0, end_articulated_bodies = 0;  // bodies in rigid / integrated clusters at t_end
 };
 
 // A row with only its identity, status and termination set (observables

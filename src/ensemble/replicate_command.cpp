@@ -273,6 +273,18 @@ ReplicateRecord to_record(const nlohmann::json& j) {
   r.mser_truncation = j.contains("mser") ? j["mser"].at("truncation").get<std::int64_t>() : -1;
   r.packing_fraction = j.at("packing_fraction").get<double>();
   r.mixing = j.at("mixing").get<double>();
+  if (j.contains("articulated")) {
+    const nlohmann::json& a = j["articulated"];
+    r.failed_slices = a.at("failed_slices").get<std::int64_t>();
+    r.released_held_rows = a.at("released_held_rows").get<std::int64_t>();
+    r.readmitted_held_rows = a.at("readmitted_held_rows").get<std::int64_t>();
+    r.max_residual_after_projection = a.at("max_residual_after_projection").get<double>();
+    r.max_cut_residual = a.at("max_cut_residual").get<double>();
+    r.max_released_residual = a.at("max_released_residual").get<double>();
+    r.max_projection = a.at("max_projection").get<double>();
+    r.end_rigid_bodies = a.at("clusters_at_end").at("rigid_bodies").get<std::int32_t>();
+    r.end_articulated_bodies = a.at("clusters_at_end").at("articulated_bodies").get<std::int32_t>();
+  }
   return r;
 }
 

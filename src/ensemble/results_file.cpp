@@ -161,6 +161,15 @@ Handle record_type(const Ctx& c) {
   RINGSIM_FIELD(mser_truncation, H5T_NATIVE_INT64);
   RINGSIM_FIELD(packing_fraction, H5T_NATIVE_DOUBLE);
   RINGSIM_FIELD(mixing, H5T_NATIVE_DOUBLE);
+  RINGSIM_FIELD(failed_slices, H5T_NATIVE_INT64);
+  RINGSIM_FIELD(released_held_rows, H5T_NATIVE_INT64);
+  RINGSIM_FIELD(readmitted_held_rows, H5T_NATIVE_INT64);
+  RINGSIM_FIELD(max_residual_after_projection, H5T_NATIVE_DOUBLE);
+  RINGSIM_FIELD(max_cut_residual, H5T_NATIVE_DOUBLE);
+  RINGSIM_FIELD(max_released_residual, H5T_NATIVE_DOUBLE);
+  RINGSIM_FIELD(max_projection, H5T_NATIVE_DOUBLE);
+  RINGSIM_FIELD(end_rigid_bodies, H5T_NATIVE_INT32);
+  RINGSIM_FIELD(end_articulated_bodies, H5T_NATIVE_INT32);
   return t;
 }
 #undef RINGSIM_FIELD
