@@ -80,20 +80,14 @@ void Simulation::cut_group(int g, double t) {
   CompliantCluster& st = G.integ->mutable_state();
   for (std::size_t k = 0; k < G.members.size(); ++k)
     st.bodies[k] = member_state(bodies_, G.members[k], t, st.bodies[k], G.shift, G.articulated);
-  if (G.slice_changed_joints && t < G.tb) {
-    // The slice's end released a row or held one again at the value it had
-    // there; before the end the slice moved on the joints of its start, and
-    // so does the state from the tracks here. Held from this state a row
-    // readmitted at the end would be off by all it moved in between (seen:
-    // a Scenario 3 dihedral 1.6e-3 from its readmitted value after a cut,
-    // 1e-3 clear of another's span, which no projection could close: the
-    // run ended in an error at t = 2156).
-    G.joints = std::move(G.slice_joints);
-    G.released = std::move(G.slice_released);
-    G.readmit_above = G.slice_readmit_above;
-    G.integ->set_joints(G.joints);
-  }
-  G.slice_changed_joints = false;
+  // A slice's end that released a row or held one again (at the value it
+  // had there) applies from that end on: before it the slice moved on the
+  // joints of its start, and so does the state from the tracks here. Held
+  // from this state a row readmitted at the end would be off by all it
+  // moved in between (seen: a Scenario 3 dihedral 1.6e-3 from its
+  // readmitted value after a cut, 1e-3 clear of another's span, which no
+  // projection could close: the run ended in an error at t = 2156).
+  if (t < G.tb ? G.restore_slice_joints() : (G.commit_slice_joints(), false)) G.integ->set_joints(G.joints);
   if (G.articulated) {
     // The tracks interpolate a linker's roll: fit the rolls to the joints
     // (invisible to the event loop). They keep the joints' velocities only to
@@ -137,46 +131,25 @@ bool Simulation::begin_slice(int g, double t) {
   double D = std::min(longest, G.track_slice);
   bool track_halved = false;
   double error = 0.0;
+  G.commit_slice_joints();  // the last slice's end is this one's start
   // An attempt that is not kept goes back to the slice start, and so do the
-  // joints: a row readmitted at the attempt's end (readmit_rows) holds the
-  // value it had there, and held from the start state it would begin the
-  // retry that far from it (seen: a Scenario 2 ring of four held angles,
-  // 8e-3 rad apart at t = 3510, which no projection could close: the run
-  // ended in an error).
-  // The joints that belong to the start state, kept until an attempt
-  // changes them (release_weak_rows, readmit_rows).
-  const bool articulated = G.articulated;
-  JointSet joints0, released0;
-  double readmit0 = 0.0;
-  bool changed = false;
-  auto save_joints = [&] {
-    if (!articulated) return;
-    joints0 = G.joints;
-    released0 = G.released;
-    readmit0 = G.readmit_above;
-    changed = false;
-  };
-  auto restore_joints = [&] {
-    if (!changed) return false;
-    G.joints = joints0;
-    G.released = released0;
-    G.readmit_above = readmit0;
-    changed = false;
-    return true;
-  };
-  save_joints();
+  // joints (CompliantGroup::restore_slice_joints): a row readmitted at the
+  // attempt's end (readmit_rows) holds the value it had there, and held from
+  // the start state it would begin the retry that far from it (seen: a
+  // Scenario 2 ring of four held angles, 8e-3 rad apart at t = 3510, which
+  // no projection could close: the run ended in an error).
   // Back to the slice start (a fresh integrator: a failed one cannot go
-  // on), release what is weak there (joints of the start state, so saved),
-  // and try half the slice: its end's test (release_weak_rows) then catches
-  // a weak row in time, and a shorter slice leaves the integrator's error
-  // control less room to drift.
+  // on), release what is weak there (a change of the start state, so
+  // committed), and try half the slice: its end's test (release_weak_rows)
+  // then catches a weak row in time, and a shorter slice leaves the
+  // integrator's error control less room to drift.
   auto retry_halved = [&] {
-    restore_joints();
+    G.restore_slice_joints();
     CompliantCluster st = G.integ->state();
     st.bodies = start.bodies;
     retire_integrator(G);
     G.integ = std::make_unique<ClusterIntegrator>(st, t, integrator_options(), G.joints);
-    if (release_weak_rows(G, true, -1.0)) save_joints();
+    if (release_weak_rows(G, true, -1.0)) G.commit_slice_joints();
     G.end_cached = false;
     D *= 0.5;
     ++stats_.failed_slices;
@@ -204,7 +177,6 @@ bool Simulation::begin_slice(int g, double t) {
       pr = G.integ->project_onto_joints(tol, true);
       const bool stalled = !(pr.residual_after <= tol) && stalled_on_held_row(G);
       if (release_weak_rows(G, stalled, pr.velocities.weakest_held_sine2) || readmit_rows(G)) {
-        changed = true;
         const double before = pr.residual_before;
         pr = G.integ->project_onto_joints(tol);
         pr.residual_before = std::max(before, pr.residual_before);
@@ -254,16 +226,9 @@ bool Simulation::begin_slice(int g, double t) {
     }
     G.integ->mutable_state().bodies = start.bodies;
     G.integ->reinit_at(t);
-    if (restore_joints()) G.integ->set_joints(G.joints);
+    if (G.restore_slice_joints()) G.integ->set_joints(G.joints);
     G.end_cached = false;
     D *= 0.5;
-  }
-  // The joints the slice moved on, for a cut before its end.
-  G.slice_changed_joints = changed;
-  if (changed) {
-    G.slice_joints = std::move(joints0);
-    G.slice_released = std::move(released0);
-    G.slice_readmit_above = readmit0;
   }
   // The next slice starts from the length the tolerance allowed, and doubles
   // back towards the longest slice while the estimate (~ D^4) leaves room.
@@ -417,9 +382,11 @@ bool Simulation::release_weak_rows(CompliantGroup& G, bool stalled, double weake
   if (G.joints.angles.empty() && G.joints.dihedrals.empty()) return false;
   const std::vector<CompliantBody>& bodies = G.integ->state().bodies;
   if (!stalled && !(weakest >= 0.0 && weakest < kHoldSine2)) return false;
-  JointSet kept = G.joints;
-  const int n = drop_redundant_held_rows(bodies, kept, &G.released, kHoldSine2);
+  JointSet kept = G.joints, dropped;
+  const int n = drop_redundant_held_rows(bodies, kept, &dropped, kHoldSine2);
   if (n == 0) return false;
+  G.save_slice_joints();
+  append_joints(G.released, dropped, 0);
   stats_.dropped_rows += n;
   stats_.released_rows += n;
   G.joints = kept;
@@ -449,12 +416,15 @@ bool Simulation::readmit_rows(CompliantGroup& G) {
   const double strayed = joint_residual(bodies, G.released).cwiseAbs().maxCoeff();
   stats_.released_residual = std::max(stats_.released_residual, strayed);
   if (!(strayed > G.readmit_above)) return false;
-  const JointSet back = take_independent_rows(bodies, G.joints, G.released, kReadmitSine2);
+  JointSet left = G.released;
+  const JointSet back = take_independent_rows(bodies, G.joints, left, kReadmitSine2);
   const int n = int(back.angles.size() + back.dihedrals.size());
   if (n == 0) {
     G.readmit_above = 2.0 * strayed;
     return false;
   }
+  G.save_slice_joints();
+  G.released = std::move(left);
   append_held_at_present(G.joints, back, bodies);
   stats_.readmitted_rows += n;
   G.readmit_above = kReadmitAbove;
@@ -470,7 +440,7 @@ void Simulation::add_group_bond(CompliantCluster& model, JointSet& joints, int s
 void Simulation::start_group(int g, CompliantCluster model, double t) {
   CompliantGroup& G = cgroups_[g];
   retire_integrator(G);
-  G.slice_changed_joints = false;  // new joints: no slice has run on them
+  G.commit_slice_joints();  // new joints: no slice has run on them
   if (G.articulated) {
     // Model no more than the scene needs: joints that leave no internal
     // freedom make one rigid body (exact free rotation), until the next

@@ -74,14 +74,36 @@ struct CompliantGroup {
   // they stray from their held values (SimStats::released_residual).
   JointSet released;
   double readmit_above = 0.0;  // Simulation::readmit_rows tests them when one strays above this
-  // The joints in force during the present slice, kept when its end changed
-  // them (a row released or held again there, Simulation::begin_slice): a
-  // cut inside the slice takes the state back to a time before that change,
-  // so it takes these back too (Simulation::cut_group).
+  std::vector<Quat> frozen_rot;
+
+  // The joints in force during the present slice, saved before its end
+  // first changes them (a row released or held again there:
+  // Simulation::release_weak_rows, readmit_rows). A rejected attempt at the
+  // slice (Simulation::begin_slice) and a cut inside it
+  // (Simulation::cut_group) take the state back to a time before that
+  // change, so they take these back too; a change that belongs to the
+  // slice's start is committed instead.
+  void save_slice_joints() {
+    if (slice_changed_joints) return;
+    slice_joints = joints;
+    slice_released = released;
+    slice_readmit_above = readmit_above;
+    slice_changed_joints = true;
+  }
+  bool restore_slice_joints() {  // true: the joints changed (the integrator needs them)
+    if (!slice_changed_joints) return false;
+    joints = std::move(slice_joints);
+    released = std::move(slice_released);
+    readmit_above = slice_readmit_above;
+    slice_changed_joints = false;
+    return true;
+  }
+  void commit_slice_joints() { slice_changed_joints = false; }
+
+ private:
   bool slice_changed_joints = false;
   JointSet slice_joints, slice_released;
   double slice_readmit_above = 0.0;
-  std::vector<Quat> frozen_rot;
 };
 
 // Tracks of every member of g over [ta, tb] from the slice ends a at ta and
