@@ -90,7 +90,10 @@ def main():
     target = sys.argv[1]
     series = []
     for arg in sys.argv[2:]:
-        label, source = arg.split("=", 1)
+        label, sep, source = arg.rpartition("=")  # the label may contain "=", the path not
+        if not sep or not pathlib.Path(source).exists():
+            sys.exit(f"plot_rings: {arg!r}: expected LABEL=SOURCE with SOURCE an existing run_scenarios.sh "
+                     "directory, `ringsim run` .h5 file or summarize_scenarios.py .csv")
         data = load_source(source)
         for existing, d in series:
             if existing == label:
