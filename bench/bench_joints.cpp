@@ -7,6 +7,9 @@
 // BM_ConstraintLoadsReused is the hosted solve as the integrator's
 // right-hand side calls it: one ConstraintLoads kept from call to call (no
 // allocation, no M^-1 G^T, the rows' body blocks from the joints).
+// BM_MultiplierFactor: the hosted problem's S factored and solved once, the
+// dense pivoted LDL^T (third argument 0) against the sparse one in its
+// minimum-degree order (1): where kSparseFromRows comes from.
 // Arguments: m, then 0 = ball joints only (Scenario 1), 1 = held angles and
 // dihedrals too (Scenario 4). docs/ARTICULATED.md, "Cost".
 //   bench_joints --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
@@ -74,6 +77,31 @@ void BM_ConstraintLoadsMaximal(benchmark::State& state) {
   state.counters["rows"] = a.joints.rows();
 }
 
+void BM_MultiplierFactor(benchmark::State& state) {
+  const test::Articulated a = chain(state);
+  const std::vector<CompliantBody>& b = a.cluster.bodies;
+  const MassMatrix m(b);
+  const HostedProblem p(b, a.joints, m);
+  Eigen::MatrixXd g;
+  Eigen::VectorXd bias;
+  RowBlocks blocks;
+  hosted_joint_rows(b, p.columns, a.joints, g, bias, &blocks);
+  MultiplierSolve::Options options;
+  options.keep_minv_gt = false;
+  options.blocks = &blocks;
+  options.any_solution = true;
+  options.sparse_from_rows = state.range(2) != 0 ? 0 : 1 << 30;
+  MultiplierSolve solve;
+  Eigen::VectorXd x;
+  for (auto _ : state) {
+    solve.compute(g, p.minv, options);
+    x = bias;
+    solve.solve_in_place(x);
+    benchmark::DoNotOptimize(x.data());
+  }
+  state.counters["rows"] = double(g.rows());
+}
+
 void chains(benchmark::internal::Benchmark* b) {
   for (const int held : {0, 1})
     for (const int m : {2, 4, 8, 16, 32}) b->Args({m, held});
@@ -84,4 +112,5 @@ void chains(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_ConstraintLoadsHosted)->Apply(chains);
 BENCHMARK(BM_ConstraintLoadsReused)->Apply(chains);
 BENCHMARK(BM_ConstraintLoadsMaximal)->Apply(chains);
+BENCHMARK(BM_MultiplierFactor)->ArgsProduct({{2, 4, 6, 8, 12, 16, 32, 64}, {0, 1}, {0, 1}});
 BENCHMARK_MAIN();

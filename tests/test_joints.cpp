@@ -21,6 +21,7 @@
 #include "core/joint_projection.hpp"
 #include "core/joints.hpp"
 #include "core/pivoted_ldlt.hpp"
+#include "core/sparse_ldlt.hpp"
 
 namespace ringsim {
 namespace {
@@ -384,6 +385,141 @@ TEST(PivotedLdlt, SolvesAndRevealsTheRank) {
   int first_small = 0;
   while (d[first_small] > 1e-7 * d.maxCoeff()) ++first_small;
   EXPECT_LT(first_small, 5) << "Eigen's LDLT reached a negligible pivot only after all kept ones";
+}
+
+// Equilibrated Gram matrix of rows that each touch two or three of `bodies`
+// blocks of 3 columns (the pattern of a cluster's S), random entries.
+Eigen::MatrixXd sparse_rows(int rows, int bodies, std::mt19937_64& gen) {
+  std::normal_distribution<double> N(0.0, 1.0);
+  std::uniform_int_distribution<int> body(0, bodies - 1);
+  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(rows, 3 * bodies);
+  for (int r = 0; r < rows; ++r)
+    for (int k = 0; k < 2 + r % 2; ++k) {
+      const int b = body(gen);
+      for (int c = 0; c < 3; ++c) g(r, 3 * b + c) = N(gen);
+    }
+  return g;
+}
+Eigen::MatrixXd equilibrated_gram(const Eigen::MatrixXd& g) {
+  const Eigen::MatrixXd s = g * g.transpose();
+  const Eigen::VectorXd d = s.diagonal().cwiseSqrt().cwiseInverse();
+  return d.asDiagonal() * s * d.asDiagonal();
+}
+
+// The sparse LDL^T (core/sparse_ldlt.hpp): a full-rank sparse system solved
+// as a dense LU solves it; a chain's matrix numbered in a scrambled order
+// factored without fill (the minimum-degree order finds its ends) and
+// without a delayed row; the analysis kept while the pattern stays and
+// redone when it changes; with rows repeated and combined, the dependent
+// rows delayed, the rank of the pivoted dense factorization and a
+// consistent system solved exactly with the dropped unknowns zero.
+TEST(SparseLdlt, SolvesOrdersAndDropsDependentRows) {
+  std::mt19937_64 gen(17);
+  const Eigen::MatrixXd s = equilibrated_gram(sparse_rows(40, 25, gen));
+  SparseLdlt f;
+  ASSERT_TRUE(f.compute(s, 1e-7));
+  ASSERT_EQ(f.rank(), 40);
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(40, -1.0, 2.0);
+  Eigen::VectorXd x = b;
+  f.solve_in_place(x);
+  EXPECT_LT((x - s.fullPivLu().solve(b)).norm(), 1e-10 * x.norm());
+  EXPECT_LT(f.factor_entries(), 40 * 39 / 4) << "far from dense";
+
+  // The same pattern, other values: the analysis is kept.
+  Eigen::MatrixXd s2 = s;
+  for (int j = 0; j < 40; ++j)
+    for (int i = j + 1; i < 40; ++i) s2(i, j) = s2(j, i) = 0.9 * s(i, j);
+  ASSERT_TRUE(f.compute(s2, 1e-7));
+  EXPECT_EQ(f.analyses(), 1);
+  x = b;
+  f.solve_in_place(x);
+  EXPECT_LT((x - s2.fullPivLu().solve(b)).norm(), 1e-10 * x.norm());
+
+  // A chain (each row coupled to the next), numbered in a scrambled order.
+  const int n = 30;
+  std::vector<int> at(n);
+  for (int i = 0; i < n; ++i) at[i] = (7 * i) % n;  // 7 and 30 coprime
+  Eigen::MatrixXd chain = Eigen::MatrixXd::Identity(n, n);
+  for (int i = 0; i + 1 < n; ++i) chain(at[i], at[i + 1]) = chain(at[i + 1], at[i]) = 0.45;
+  ASSERT_TRUE(f.compute(chain, 1e-7));
+  EXPECT_EQ(f.analyses(), 2);
+  EXPECT_EQ(f.factor_entries(), n - 1) << "no fill";
+  EXPECT_EQ(f.delayed(), 0);
+  x = Eigen::VectorXd::LinSpaced(n, 1.0, -1.0);
+  f.solve_in_place(x);
+  EXPECT_LT((chain * x - Eigen::VectorXd::LinSpaced(n, 1.0, -1.0)).norm(), 1e-12);
+
+  // Rank 12 of 18: rows 12-17 repeat or combine earlier ones (sharing their
+  // bodies, so the pattern stays sparse).
+  Eigen::MatrixXd g = sparse_rows(18, 12, gen);
+  g.row(12) = g.row(0);
+  g.row(13) = g.row(1) - 0.5 * g.row(3);
+  g.row(14) = 2.0 * g.row(2) + g.row(4);
+  g.row(15) = g.row(5);
+  g.row(16) = g.row(7) + g.row(8);
+  g.row(17) = -g.row(11);
+  const Eigen::MatrixXd deficient = equilibrated_gram(g);
+  PivotedLdlt dense;
+  dense.compute(deficient, 1e-7);
+  ASSERT_TRUE(f.compute(deficient, 1e-7));
+  EXPECT_EQ(dense.rank(), 12);
+  EXPECT_EQ(f.rank(), 12);
+  const Eigen::VectorXd consistent = deficient * Eigen::VectorXd::LinSpaced(18, 0.5, -1.5);
+  x = consistent;
+  f.solve_in_place(x);
+  EXPECT_LT((deficient * x - consistent).norm(), 1e-10 * consistent.norm());
+  EXPECT_EQ(int((x.array() == 0.0).count()), 6);  // the dropped unknowns
+  EXPECT_GE(f.delayed(), 6);
+
+  Eigen::MatrixXd nan = s;
+  nan(3, 3) = std::nan("");
+  EXPECT_FALSE(f.compute(nan, 1e-7));
+}
+
+// MultiplierSolve with S factored sparse and dense: on an open chain of 16
+// corners with held angles and dihedrals (full rank) the same multipliers;
+// on a closed square holding every angle and dihedral (rank deficient, as
+// the right-hand side's loads solve it: any solution) the same G^T lambda
+// for a consistent right-hand side, and the same rank. One sparse solve is
+// reused, as a right-hand side reuses it: the chain, the chain moved (the
+// same pattern: S cleared on it only), the square (a new pattern), the
+// chain again.
+TEST(ConstrainedDynamics, SparseAndDenseFactorsAgree) {
+  test::Articulated moved = test::open_chain(16, 0.2, true, true);
+  test::jitter_velocities(moved.cluster, 0.5, 0.8, 3);
+  displace(moved.cluster.bodies, VelocityLayout(moved.cluster.bodies),
+           0.05 * velocity_vector(moved.cluster.bodies, VelocityLayout(moved.cluster.bodies)));
+  const std::vector<test::Articulated> cases = {test::open_chain(16, 0.2, true, true), moved,
+                                                test::square(0.2, true, true), test::open_chain(16, 0.2, true, true)};
+  MultiplierSolve sparse;
+  for (std::size_t c = 0; c < cases.size(); ++c) {
+    const bool ring = c == 2;
+    const std::vector<CompliantBody>& b = cases[c].cluster.bodies;
+    const MassMatrix m(b);
+    const HostedProblem p(b, cases[c].joints, m);
+    Eigen::MatrixXd g;
+    Eigen::VectorXd bias;
+    RowBlocks blocks;
+    hosted_joint_rows(b, p.columns, cases[c].joints, g, bias, &blocks);
+    MultiplierSolve::Options options;
+    options.blocks = &blocks;
+    options.any_solution = true;
+    options.sparse_from_rows = 0;
+    sparse.compute(g, p.minv, options);
+    options.sparse_from_rows = 1 << 30;
+    MultiplierSolve dense;
+    dense.compute(g, p.minv, options);
+    ASSERT_TRUE(sparse.sparse());
+    ASSERT_FALSE(dense.sparse());
+    EXPECT_TRUE(sparse.s() == dense.s()) << "case " << c;
+    EXPECT_EQ(sparse.rank(), dense.rank()) << "case " << c;
+    EXPECT_EQ(sparse.rank() < g.rows(), ring);
+    const Eigen::VectorXd rhs = dense.s() * Eigen::VectorXd::LinSpaced(g.rows(), -1.0, 1.0);
+    const Eigen::VectorXd ls = sparse.solve(rhs), ld = dense.solve(rhs);
+    const Eigen::VectorXd fs = g.transpose() * ls, fd = g.transpose() * ld;
+    EXPECT_LT((fs - fd).norm(), 1e-9 * fd.norm()) << "case " << c;
+    if (!ring) EXPECT_LT((ls - ld).norm(), 1e-9 * ld.norm()) << "case " << c;
+  }
 }
 
 // Internal degrees of freedom = velocity coordinates - rank(G) - 6.

@@ -129,7 +129,8 @@ MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const InverseMassBloc
 void MultiplierSolve::compute(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const Options& options) {
   rows_ = int(g.rows());
   keep_minv_gt_ = options.keep_minv_gt;
-  full_ = cut_short_ = false;
+  full_ = cut_short_ = sparse_ = false;
+  plan_sparse_ = !options.rank_revealing && rows_ > 0 && rows_ >= options.sparse_from_rows;
   assemble(g, minv, options.blocks);
   factor(options);
 }
@@ -139,7 +140,21 @@ void MultiplierSolve::factor(const Options& options) {
   // Equilibrated in place: s_ holds S~ from here on (s() gives S back).
   const double zero_row = kZeroRow * s_.diagonal().maxCoeff();
   scale_ = s_.diagonal().unaryExpr([zero_row](double x) { return x > zero_row ? 1.0 / std::sqrt(x) : 1.0; });
-  scale_symmetric(s_, scale_);
+  if (plan_sparse_) {  // S is zero outside the analysed pattern: scaled there only
+    sparse_ldlt_.for_each_entry([this](int i, int j) {
+      const double a = scale_[i] * scale_[j];
+      s_(i, j) *= a;
+      if (i != j) s_(j, i) *= a;
+    });
+  } else {
+    scale_symmetric(s_, scale_);
+  }
+  if (plan_sparse_ && sparse_ldlt_.factor(s_, kRankThreshold)) {
+    full_ = sparse_ldlt_.rank() == rows_;
+    cut_short_ = !full_ && options.any_solution;
+    sparse_ = full_ || cut_short_;
+    if (sparse_) return;
+  }
   if (!options.rank_revealing) {
     ldlt_.compute(s_, kRankThreshold);
     full_ = ldlt_.rank() == rows_;
@@ -181,7 +196,6 @@ void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const InverseMassBlocks
   if (keep_minv_gt_) minv_gt_.setZero(g.cols(), rows_);
   else minv_gt_.resize(0, 0);
   Eigen::MatrixXd* minv_gt = keep_minv_gt_ ? &minv_gt_ : nullptr;
-  s_.setZero(rows_, rows_);
   agt_.resize(6, rows_);
   const int nb = int(minv.offset.size());
   // touched_[start_[i], start_[i + 1]): the rows with entries in block i's
@@ -212,6 +226,23 @@ void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const InverseMassBlocks
       start_[i + 1] = int(touched_.size());
     }
   }
+  // S starts from zero: on a planned sparse factorization with the pattern
+  // of the last one (the right-hand sides of a slice), only the pattern is
+  // cleared (S is zero elsewhere since); otherwise all of it, and a new
+  // pattern is analysed.
+  const bool same_pattern = plan_sparse_ && s_is_pattern_ && s_.rows() == rows_ && start_ == pattern_start_ &&
+                            touched_ == pattern_rows_;
+  if (same_pattern) {
+    sparse_ldlt_.for_each_entry([this](int i, int j) { s_(i, j) = s_(j, i) = 0.0; });
+  } else {
+    s_.setZero(rows_, rows_);
+    if (plan_sparse_) {
+      sparse_ldlt_.analyse(rows_, start_, touched_);
+      pattern_start_ = start_;
+      pattern_rows_ = touched_;
+    }
+  }
+  s_is_pattern_ = plan_sparse_;
   for (int i = 0; i < nb; ++i) {
     const int o = minv.offset[i], n = start_[i + 1] - start_[i];
     const int* rows = touched_.data() + start_[i];
@@ -237,7 +268,7 @@ Eigen::VectorXd MultiplierSolve::row_sines2(int first) const {
   for (int i = 0; i < k; ++i) {
     e.setZero();
     e[first + i] = 1.0;
-    ldlt_.solve_in_place(e);
+    solve_factors(e);
     s2[i] = 1.0 / e[first + i];
   }
   return s2;
@@ -252,9 +283,14 @@ Eigen::VectorXd MultiplierSolve::solve(const Eigen::VectorXd& rhs) const {
 void MultiplierSolve::solve_in_place(Eigen::VectorXd& x) const {
   if (rows_ == 0) return;
   x.array() *= scale_.array();
-  if (full_ || cut_short_) ldlt_.solve_in_place(x);
+  if (full_ || cut_short_) solve_factors(x);
   else x = cod_.solve(x);
   x.array() *= scale_.array();
+}
+
+void MultiplierSolve::solve_factors(Eigen::VectorXd& x) const {
+  if (sparse_) sparse_ldlt_.solve_in_place(x);
+  else ldlt_.solve_in_place(x);
 }
 
 Eigen::VectorXd generalized_force(const std::vector<CompliantBody>& bodies, const MassMatrix& m,

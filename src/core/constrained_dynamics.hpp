@@ -20,10 +20,12 @@
 // squares otherwise. Rank decisions elsewhere (internal_dof) use the same
 // threshold on the same matrix.
 //
-// G and S are stored dense: a cluster has at most a few tens of bodies before
-// it is rigid or closed; an O(n) solver for open chains (Baraff's) is future
-// work. S is assembled body by body from G's nonzero rows (M is block
-// diagonal, and a row touches 2 or 3 bodies), not by a dense product.
+// G and S are stored dense, S assembled body by body from G's nonzero rows
+// (M is block diagonal, and a row touches 2 or 3 bodies), not by a dense
+// product. From kSparseFromRows rows on S is factored sparse
+// (core/sparse_ldlt.hpp), touching only its pattern and L's: a cluster is a
+// tree of bonds with a few rings, and the dense factorization's O(rows^3)
+// was the largest cost of Scenario 1's large clusters.
 
 #include <vector>
 
@@ -33,6 +35,7 @@
 
 #include "core/joints.hpp"
 #include "core/pivoted_ldlt.hpp"
+#include "core/sparse_ldlt.hpp"
 
 namespace ringsim {
 
@@ -47,6 +50,13 @@ namespace ringsim {
 // with S_ii below kZeroRow x the largest is a zero row (not scaled).
 constexpr double kRankThreshold = 1e-7;
 constexpr double kZeroRow = 1e-16;
+
+// From this many rows on, S is factored sparse first (core/sparse_ldlt.hpp:
+// a fill-reducing order, pivots below kRankThreshold dropped as they come);
+// below it, and when the sparse factors show S rank deficient and no
+// solution but the minimum-norm one will do, the dense pivoted LDL^T.
+// Chosen by bench_joints (BM_MultiplierFactor; docs/ARTICULATED.md, "Cost").
+constexpr int kSparseFromRows = 6;
 
 // M^-1 of a multiplier problem as diagonal blocks, one per body of the
 // problem: width 3 (a point mass) or 6 (a rigid body: v then omega; a
@@ -83,10 +93,13 @@ struct MassMatrix {
 // S is the sum over bodies i of G_i M_i^-1 G_i^T (G_i: G's columns of body i),
 // each added on the rows with a nonzero in those columns only; it is exactly
 // symmetric (each product G_a M_i^-1 G_c^T is added to both (a, c) and (c, a)).
-// S is symmetric positive semi-definite. A Cholesky factorization (LDL^T
-// with diagonal pivoting on the Schur complement, core/pivoted_ldlt.hpp)
-// serves when its pivots all stay above kRankThreshold x the largest (full
-// rank: the solution is unique and the same); otherwise, and always when
+// S is symmetric positive semi-definite. A Cholesky factorization (LDL^T:
+// sparse with its nearly dependent rows pivoted last, core/sparse_ldlt.hpp,
+// from kSparseFromRows rows on; below that, or where the sparse one finds S
+// rank deficient and any_solution is not given, dense with diagonal
+// pivoting on the Schur complement, core/pivoted_ldlt.hpp) serves when its
+// pivots all stay above kRankThreshold x the largest (full rank: the
+// solution is unique and the same); otherwise, and always when
 // rank_revealing (internal_dof's rank decision), the complete orthogonal
 // decomposition gives the minimum-norm solution, unless any_solution lets
 // the factorization serve cut short. Measured: the LDL^T path cuts an articulated Scenario 1 run's
@@ -112,13 +125,19 @@ class MultiplierSolve {
     // off it (the integrator's drift on redundant rows) the two differ at
     // the order of that drift.
     bool any_solution = false;
+    // S is factored sparse from this many rows on (kSparseFromRows; tests
+    // and benchmarks set 0 or a large value to compare the two).
+    int sparse_from_rows = kSparseFromRows;
   };
   // Factors S for new G and M^-1 in this object's storage (no allocation
   // when the sizes are those of the last call: the right-hand side's case).
   void compute(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const Options& options);
   Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;  // minimum-norm lambda of S lambda = rhs
   void solve_in_place(Eigen::VectorXd& x) const;  // x <- solve(x)
-  int rank() const { return rows_ == 0 ? 0 : full_ || cut_short_ ? ldlt_.rank() : int(cod_.rank()); }
+  int rank() const {
+    return rows_ == 0 ? 0 : sparse_ ? sparse_ldlt_.rank() : full_ || cut_short_ ? ldlt_.rank() : int(cod_.rank());
+  }
+  bool sparse() const { return sparse_; }  // the sparse factors serve (full rank or cut short)
   const Eigen::MatrixXd& minv_gt() const { return minv_gt_; }  // M^-1 G^T (empty unless kept)
   Eigen::MatrixXd s() const;  // S = G M^-1 G^T (a copy: the solve keeps S~)
   // Each row's squared sine to the span of all the others (1 / (S~^-1)_ii),
@@ -130,10 +149,18 @@ class MultiplierSolve {
  private:
   void assemble(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const RowBlocks* blocks);  // minv_gt_, s_
   void factor(const Options& options);
+  void solve_factors(Eigen::VectorXd& x) const;  // x <- S~^-1 x by the LDL^T factors that serve
 
   int rows_ = 0;
   bool full_ = false;       // the LDL^T factors serve, full rank
   bool cut_short_ = false;  // any_solution: they serve cut short (rank deficient)
+  bool sparse_ = false;     // the factors that serve are sparse_ldlt_'s, not ldlt_'s
+  bool plan_sparse_ = false;  // this compute tries the sparse factors first
+  // s_ is zero outside sparse_ldlt_'s analysed pattern, which is that of
+  // the rows touching each block as pattern_start_ / pattern_rows_ list them
+  // (start_ / touched_ of the call that analysed it).
+  bool s_is_pattern_ = false;
+  std::vector<int> pattern_start_, pattern_rows_;
   bool keep_minv_gt_ = true;
   // Assembly scratch: touched_[start_[i], start_[i + 1]) the rows that touch
   // block i; block_at_ a first column's block; fill_ the next free slot.
@@ -142,6 +169,7 @@ class MultiplierSolve {
   Eigen::VectorXd scale_;  // D^-1/2: the factors are of S~ = D^-1/2 S D^-1/2
   Eigen::MatrixXd minv_gt_, s_;  // s_: S while assembled, then S~ (equilibrated)
   PivotedLdlt ldlt_;
+  SparseLdlt sparse_ldlt_;
   Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod_;
 };
 
