@@ -471,6 +471,13 @@ TEST(SparseLdlt, SolvesOrdersAndDropsDependentRows) {
   EXPECT_EQ(int((x.array() == 0.0).count()), 6);  // the dropped unknowns
   EXPECT_GE(f.delayed(), 6);
 
+  // All zero (rows of G that vanish): rank 0, the solution zero.
+  ASSERT_TRUE(f.compute(Eigen::MatrixXd::Zero(5, 5), 1e-7));
+  EXPECT_EQ(f.rank(), 0);
+  x = Eigen::VectorXd::Ones(5);
+  f.solve_in_place(x);
+  EXPECT_TRUE(x.isZero(0.0));
+
   Eigen::MatrixXd nan = s;
   nan(3, 3) = std::nan("");
   EXPECT_FALSE(f.compute(nan, 1e-7));

@@ -43,7 +43,6 @@ bool SparseLdlt::factor(const Eigen::MatrixXd& a, double cut) {
   const double largest = n == 0 ? 0.0 : a.diagonal().maxCoeff();
   if (std::isnan(largest)) return false;
   const double floor = cut * largest, delay = kDelaySine2 * largest;
-  delayed_block_.resize(n, n);  // the top-left delayed_.size() square is used
   std::vector<double>& ld = delayed_l_;
   for (int k = 0; k < n; ++k) {
     const int p = order_[k];
@@ -51,10 +50,12 @@ bool SparseLdlt::factor(const Eigen::MatrixXd& a, double cut) {
     if (std::isnan(dk)) return false;
     const int b = l_start_[k], e = l_start_[k + 1];
     const int nd = int(delayed_.size());
-    if (!(dk >= delay)) {
+    if (!(dk >= delay) || !(dk > 0.0)) {
       // Delayed to the trailing block: its row (column p of work_ on its
       // pattern, zero elsewhere) moves to row p, its coupling to the rows
-      // delayed before it to delayed_block_.
+      // delayed before it to delayed_block_ (grown as needed, its top-left
+      // square in use).
+      if (delayed_block_.rows() <= nd) delayed_block_.conservativeResize(2 * nd + 4, 2 * nd + 4);
       for (int j = 0; j < n; ++j)
         if (pos_[j] > k) work_(p, j) = 0.0;
       for (int t = b; t < e; ++t) work_(p, l_rows_[t]) = work_(l_rows_[t], p);
