@@ -78,28 +78,21 @@ void BM_ConstraintLoadsMaximal(benchmark::State& state) {
 }
 
 void BM_MultiplierFactor(benchmark::State& state) {
-  const test::Articulated a = chain(state);
-  const std::vector<CompliantBody>& b = a.cluster.bodies;
-  const MassMatrix m(b);
-  const HostedProblem p(b, a.joints, m);
-  Eigen::MatrixXd g;
-  Eigen::VectorXd bias;
-  RowBlocks blocks;
-  hosted_joint_rows(b, p.columns, a.joints, g, bias, &blocks);
+  const test::HostedRows h(chain(state));
   MultiplierSolve::Options options;
   options.keep_minv_gt = false;
-  options.blocks = &blocks;
+  options.blocks = &h.blocks;
   options.any_solution = true;
   options.sparse_from_rows = state.range(2) != 0 ? 0 : 1 << 30;
   MultiplierSolve solve;
   Eigen::VectorXd x;
   for (auto _ : state) {
-    solve.compute(g, p.minv, options);
-    x = bias;
+    solve.compute(h.g, h.p.minv, options);
+    x = h.bias;
     solve.solve_in_place(x);
     benchmark::DoNotOptimize(x.data());
   }
-  state.counters["rows"] = double(g.rows());
+  state.counters["rows"] = double(h.g.rows());
 }
 
 void chains(benchmark::internal::Benchmark* b) {

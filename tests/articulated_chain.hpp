@@ -133,6 +133,21 @@ inline Articulated open_chain(int m, double off, bool angles, bool dihedrals) {
   return a;
 }
 
+// The hosted multiplier problem of a cluster (core/constrained_dynamics.hpp,
+// HostedProblem) at its present state: G, the bias and the rows' body
+// blocks, as the right-hand side builds them.
+struct HostedRows {
+  MassMatrix m;
+  HostedProblem p;
+  Eigen::MatrixXd g;
+  Eigen::VectorXd bias;
+  RowBlocks blocks;
+
+  explicit HostedRows(const Articulated& a) : m(a.cluster.bodies), p(a.cluster.bodies, a.joints, m) {
+    hosted_joint_rows(a.cluster.bodies, p.columns, a.joints, g, bias, &blocks);
+  }
+};
+
 // The saddle-point matrix [M G^T; G 0] of a constrained problem in maximal
 // coordinates, for the dense reference solves of the tests.
 inline Eigen::MatrixXd kkt_matrix(const MassMatrix& m, const Eigen::MatrixXd& g) {
