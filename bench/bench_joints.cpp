@@ -10,6 +10,12 @@
 // BM_MultiplierFactor: the hosted problem's S factored and solved once, the
 // dense pivoted LDL^T (third argument 0) against the sparse one in its
 // minimum-degree order (1): where kSparseFromRows comes from.
+// On a chain closed by a ring of two linkers at its start (S rank
+// deficient, as in most of Scenario 1's large clusters):
+// BM_DeficientSolve, the minimum-norm solve (complete orthogonal
+// decomposition, second argument 0) against any solution (the LDL^T cut
+// short, 1); BM_ProjectVelocities, the velocity projection with a new
+// solve per call (0) against a workspace kept from call to call (1).
 // Arguments: m, then 0 = ball joints only (Scenario 1), 1 = held angles and
 // dihedrals too (Scenario 4). docs/ARTICULATED.md, "Cost".
 //   bench_joints --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
@@ -20,7 +26,9 @@
 #include <vector>
 
 #include "articulated_chain.hpp"
+#include "core/allocator.hpp"
 #include "core/constrained_dynamics.hpp"
+#include "core/joint_projection.hpp"
 
 using namespace ringsim;
 
@@ -77,13 +85,10 @@ void BM_ConstraintLoadsMaximal(benchmark::State& state) {
   state.counters["rows"] = a.joints.rows();
 }
 
-void BM_MultiplierFactor(benchmark::State& state) {
-  const test::HostedRows h(chain(state));
-  MultiplierSolve::Options options;
-  options.keep_minv_gt = false;
+// S assembled, factored and solved for the bias, as often as the state
+// asks, with `options` (its blocks those of h); counters: rows and rank.
+void time_solve(benchmark::State& state, const test::HostedRows& h, MultiplierSolve::Options options) {
   options.blocks = &h.blocks;
-  options.any_solution = true;
-  options.sparse_from_rows = state.range(2) != 0 ? 0 : 1 << 30;
   MultiplierSolve solve;
   Eigen::VectorXd x;
   for (auto _ : state) {
@@ -93,6 +98,44 @@ void BM_MultiplierFactor(benchmark::State& state) {
     benchmark::DoNotOptimize(x.data());
   }
   state.counters["rows"] = double(h.g.rows());
+  state.counters["rank"] = solve.rank();
+}
+
+void BM_MultiplierFactor(benchmark::State& state) {
+  MultiplierSolve::Options options;
+  options.keep_minv_gt = false;
+  options.any_solution = true;
+  options.sparse_from_rows = state.range(2) != 0 ? 0 : 1 << 30;
+  time_solve(state, test::HostedRows(chain(state)), options);
+}
+
+// open_chain(m) plus a second linker beside the first, bonded to the
+// same two spheres: a ring of two linkers.
+test::Articulated ringed_chain(int m) {
+  test::Articulated a = test::open_chain(m, 0.2, false, false);
+  const CompliantBody& l0 = a.cluster.bodies[1];
+  a.cluster.bodies.push_back(test::linker_at(l0.x + 0.3 * test::perpendicular(l0.axis()), l0.axis(), 0.4));
+  const int extra = int(a.cluster.bodies.size()) - 1;
+  a.joints.balls.push_back(make_ball_joint(a.bodies(), 0, extra));
+  a.joints.balls.push_back(make_ball_joint(a.bodies(), 2, extra));
+  test::jitter_velocities(a.cluster, 0.5, 0.8, 3);
+  return a;
+}
+
+void BM_DeficientSolve(benchmark::State& state) {
+  MultiplierSolve::Options options;
+  options.any_solution = state.range(1) != 0;
+  time_solve(state, test::HostedRows(ringed_chain(int(state.range(0)))), options);
+}
+
+void BM_ProjectVelocities(benchmark::State& state) {
+  const test::Articulated a = ringed_chain(int(state.range(0)));
+  MultiplierSolve workspace;
+  MultiplierSolve* w = state.range(1) != 0 ? &workspace : nullptr;
+  for (auto _ : state) {
+    std::vector<CompliantBody> b = a.cluster.bodies;
+    benchmark::DoNotOptimize(project_velocities(b, a.joints, false, w).energy_change);
+  }
 }
 
 void chains(benchmark::internal::Benchmark* b) {
@@ -106,4 +149,13 @@ BENCHMARK(BM_ConstraintLoadsHosted)->Apply(chains);
 BENCHMARK(BM_ConstraintLoadsReused)->Apply(chains);
 BENCHMARK(BM_ConstraintLoadsMaximal)->Apply(chains);
 BENCHMARK(BM_MultiplierFactor)->ArgsProduct({{2, 4, 6, 8, 12, 16, 32, 64}, {0, 1}, {0, 1}});
-BENCHMARK_MAIN();
+BENCHMARK(BM_DeficientSolve)->ArgsProduct({{8, 32, 64}, {0, 1}});
+BENCHMARK(BM_ProjectVelocities)->ArgsProduct({{8, 32, 64}, {0, 1}});
+int main(int argc, char** argv) {
+  keep_freed_memory();  // as ringsim's main: the allocator is part of what is timed
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -4,11 +4,9 @@
 #include <cstdio>
 #include <cstring>
 #include <iostream>
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 
 #include "analysis/mser_command.hpp"
+#include "core/allocator.hpp"
 #include "core/scene.hpp"
 #include "ensemble/config.hpp"
 #include "ensemble/aggregate_command.hpp"
@@ -17,29 +15,8 @@
 #include "ensemble/run_command.hpp"
 #include "ringsim/version.hpp"
 
-namespace {
-
-// Freed memory stays in the process for the next allocation of its size.
-// An articulated cluster's dense matrices (G, S, M^-1 G^T: hundreds of KB
-// once a cluster has tens of linkers) are made and freed many times per
-// slice; with glibc's adaptive defaults each free at the top of the heap was
-// trimmed back to the system and each new one faulted its pages in again
-// while it was zeroed. Measured (Scenario 1, seed 1, t_max = 1000, docs/
-// PERFORMANCE.md, "Allocator"): 4.7 M page faults and 134 s wall, 38 s of it
-// in the kernel, against 4 thousand faults and 51 s with these settings; the
-// same trajectory to the last event. The cost is memory that a process which
-// once needed it keeps (a replicate's peak, tens of MB).
-void keep_freed_memory() {
-#if defined(__GLIBC__)
-  mallopt(M_MMAP_THRESHOLD, 32 << 20);   // blocks below 32 MB from the heap (glibc's largest setting)
-  mallopt(M_TRIM_THRESHOLD, 512 << 20);  // the heap's free top returned only above 512 MB
-#endif
-}
-
-}  // namespace
-
 int main(int argc, char** argv) {
-  keep_freed_memory();
+  ringsim::keep_freed_memory();
   CLI::App app{"ringsim: event-driven rigid-body simulation of geometry-driven macrocyclization "
                "(spheres and cylindrical linkers). See README.md and docs/."};
   app.require_subcommand(1);

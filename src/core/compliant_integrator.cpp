@@ -133,6 +133,7 @@ struct ClusterIntegrator::Impl {
   JointSet joints;
   std::vector<CompliantBody> work;
   ConstraintLoads constraint_loads;
+  MultiplierSolve projection_solve;  // project_onto_joints' workspace (its analysis kept)
   bool non_finite = false;
   double non_finite_t = 0.0;
   // BDF: the total momentum and the mass-weighted sum of positions of the
@@ -580,7 +581,8 @@ void ClusterIntegrator::reinit_at(double t) {
   impl_->restart();
 }
 PositionProjection ClusterIntegrator::project_onto_joints(double tolerance, bool held_sines) {
-  PositionProjection r = project_positions(impl_->cluster.bodies, impl_->joints, tolerance, 8, held_sines);
+  PositionProjection r =
+      project_positions(impl_->cluster.bodies, impl_->joints, tolerance, 8, held_sines, &impl_->projection_solve);
   impl_->restart();
   return r;
 }

@@ -28,7 +28,13 @@ Mat3 collision_matrix(const std::vector<CompliantBody>& bodies, const JointSet& 
     // solves, not W's n.
     JointRows rows;
     joint_rows(bodies, m.layout, joints, rows);
-    const MultiplierSolve solve(rows.g, m);
+    // B's columns lie in the range of S (B = G X), so any solution gives
+    // the same B^T lambda = C M^-1 (G^T lambda): the LDL^T cut short serves
+    // where S is rank deficient, not the complete orthogonal decomposition.
+    MultiplierSolve::Options options;
+    options.any_solution = true;
+    MultiplierSolve solve;
+    solve.compute(rows.g, m.inverse_blocks(), options);
     const Eigen::MatrixXd b = rows.g * minv_ct;
     Eigen::MatrixXd sb(b.rows(), 3);
     for (int col = 0; col < 3; ++col) sb.col(col) = solve.solve(b.col(col));

@@ -21,15 +21,21 @@ double max_abs(const Eigen::VectorXd& x) { return x.size() == 0 ? 0.0 : x.cwiseA
 // the full problem's minimizer (the same feasible set), with 3 rows fewer per
 // bonded sphere. Used for the velocity projection (r = G nu) and the
 // position steps (r = C).
+// any_solution: r is known to lie in the range of G (r = G nu), so any
+// multipliers give the same correction (MultiplierSolve::Options). `solve`
+// is the caller's, kept from call to call (its sparse analysis with it),
+// or the correction's own.
 class HostedCorrection {
  public:
-  HostedCorrection(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m)
-      : joints_(joints), m_(m), p_(bodies, joints, m) {
+  HostedCorrection(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m,
+                   bool any_solution, MultiplierSolve* solve)
+      : joints_(joints), m_(m), p_(bodies, joints, m), solve_(solve ? *solve : own_) {
     Eigen::VectorXd bias;
     RowBlocks blocks;
     hosted_joint_rows(bodies, p_.columns, joints, g_, bias, &blocks);
     MultiplierSolve::Options options;
     options.blocks = &blocks;
+    options.any_solution = any_solution;
     solve_.compute(g_, p_.minv, options);
   }
 
@@ -61,12 +67,14 @@ class HostedCorrection {
   const MassMatrix& m_;
   HostedProblem p_;
   Eigen::MatrixXd g_;
-  MultiplierSolve solve_;
+  MultiplierSolve own_;
+  MultiplierSolve& solve_;
 };
 
 }  // namespace
 
-VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints, bool held_sines) {
+VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints, bool held_sines,
+                                      MultiplierSolve* workspace) {
   VelocityProjection r;
   if (joints.empty()) return r;
   const MassMatrix m(bodies);
@@ -76,7 +84,7 @@ VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const 
   const Eigen::VectorXd gv = rows.g * nu;
   // The minimum of |nu1 - nu|_M over G nu1 = 0: nu plus the M-smallest
   // correction with G dnu = -G nu, on the hosted problem.
-  const HostedCorrection correction(bodies, joints, m);
+  const HostedCorrection correction(bodies, joints, m, true, workspace);
   const Eigen::VectorXd nu1 = nu + correction(gv);
   const HostedProblem& p = correction.problem();
   const Eigen::MatrixXd& g = correction.g();
@@ -137,7 +145,7 @@ RollFit fit_rolls(std::vector<CompliantBody>& bodies, const JointSet& joints, in
 }
 
 PositionProjection project_positions(std::vector<CompliantBody>& bodies, const JointSet& joints, double tolerance,
-                                     int max_iterations, bool held_sines) {
+                                     int max_iterations, bool held_sines, MultiplierSolve* workspace) {
   PositionProjection r;
   if (joints.empty()) {
     r.converged = true;
@@ -166,7 +174,9 @@ PositionProjection project_positions(std::vector<CompliantBody>& bodies, const J
     r.residual_after = res;
     if (res <= tolerance || r.iterations >= max_iterations) break;
     const MassMatrix m(bodies);
-    const Eigen::VectorXd dnu = HostedCorrection(bodies, joints, m)(c);
+    // C need not lie in the range of G (redundant rows drift apart):
+    // the minimum-norm least-squares step.
+    const Eigen::VectorXd dnu = HostedCorrection(bodies, joints, m, false, workspace)(c);
     last = bodies;
     last_moved2 = moved2;
     displace(bodies, m.layout, dnu);
@@ -175,7 +185,7 @@ PositionProjection project_positions(std::vector<CompliantBody>& bodies, const J
   }
   r.converged = r.residual_after <= tolerance;
   r.displacement = std::sqrt(moved2);
-  r.velocities = project_velocities(bodies, joints, held_sines);
+  r.velocities = project_velocities(bodies, joints, held_sines, workspace);
   return r;
 }
 

@@ -31,6 +31,8 @@
 
 namespace ringsim {
 
+class MultiplierSolve;  // core/constrained_dynamics.hpp
+
 struct VelocityProjection {
   double residual_before = 0.0;  // max |G nu| before
   double residual_after = 0.0;   // after
@@ -41,8 +43,12 @@ struct VelocityProjection {
   // -1 when S is rank deficient, 1 without held rows.
   double weakest_held_sine2 = 1.0;
 };
+// workspace (here and in project_positions): a MultiplierSolve the caller
+// keeps from call to call, so that the sparse factorization's analysis is
+// made once per pattern of joints (docs/ARTICULATED.md, "Cost"); null: one
+// of the call's own. The results do not depend on it.
 VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints,
-                                      bool held_sines = false);
+                                      bool held_sines = false, MultiplierSolve* workspace = nullptr);
 
 // The linkers' rolls about their own axes that best satisfy the joints
 // (Gauss-Newton on the roll angles alone, least squares, at most
@@ -67,6 +73,7 @@ struct PositionProjection {
 // no longer halves the residual: a singular pose), then velocities (with
 // held_sines, they also measure the held rows: VelocityProjection).
 PositionProjection project_positions(std::vector<CompliantBody>& bodies, const JointSet& joints, double tolerance,
-                                     int max_iterations = 8, bool held_sines = false);
+                                     int max_iterations = 8, bool held_sines = false,
+                                     MultiplierSolve* workspace = nullptr);
 
 }  // namespace ringsim
