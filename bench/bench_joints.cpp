@@ -15,7 +15,8 @@
 // BM_DeficientSolve, the minimum-norm solve (complete orthogonal
 // decomposition, second argument 0) against any solution (the LDL^T cut
 // short, 1); BM_ProjectVelocities, the velocity projection with a new
-// solve per call (0) against a workspace kept from call to call (1).
+// solve per call (0) against a workspace kept from call to call (1);
+// BM_CollisionMatrix and BM_FitRolls, a cut's other work on such a chain.
 // Arguments: m, then 0 = ball joints only (Scenario 1), 1 = held angles and
 // dihedrals too (Scenario 4). docs/ARTICULATED.md, "Cost".
 //   bench_joints --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
@@ -23,11 +24,13 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 #include "articulated_chain.hpp"
 #include "core/allocator.hpp"
 #include "core/constrained_dynamics.hpp"
+#include "core/joint_impulses.hpp"
 #include "core/joint_projection.hpp"
 
 using namespace ringsim;
@@ -138,9 +141,31 @@ void BM_ProjectVelocities(benchmark::State& state) {
   }
 }
 
+// A cut's work on a cluster (core/joint_impulses.hpp, joint_projection.hpp):
+// the collision matrix at a point of the last linker, and the roll fit
+// after every linker's roll was turned by up to 1e-3 rad.
+void BM_CollisionMatrix(benchmark::State& state) {
+  const test::Articulated a = ringed_chain(int(state.range(0)));
+  const int last = int(a.cluster.bodies.size()) - 2;
+  for (auto _ : state)
+    benchmark::DoNotOptimize(collision_matrix(a.cluster.bodies, a.joints, last, Vec3(0.1, 0.2, 0.3)));
+}
+
+void BM_FitRolls(benchmark::State& state) {
+  const test::Articulated a = ringed_chain(int(state.range(0)));
+  std::vector<CompliantBody> turned = a.cluster.bodies;
+  double t = 0.0;
+  for (CompliantBody& b : turned)
+    if (b.shape == Shape::Linker) b.q = (Quat(Eigen::AngleAxisd(1e-3 * std::sin(t += 1.0), b.axis())) * b.q).normalized();
+  for (auto _ : state) {
+    std::vector<CompliantBody> b = turned;
+    benchmark::DoNotOptimize(fit_rolls(b, a.joints).residual_after);
+  }
+}
+
 void chains(benchmark::internal::Benchmark* b) {
   for (const int held : {0, 1})
-    for (const int m : {2, 4, 8, 16, 32}) b->Args({m, held});
+    for (const int m : {2, 4, 8, 16, 32, 64, 128}) b->Args({m, held});
 }
 
 }  // namespace
@@ -150,7 +175,9 @@ BENCHMARK(BM_ConstraintLoadsReused)->Apply(chains);
 BENCHMARK(BM_ConstraintLoadsMaximal)->Apply(chains);
 BENCHMARK(BM_MultiplierFactor)->ArgsProduct({{2, 4, 6, 8, 12, 16, 32, 64}, {0, 1}, {0, 1}});
 BENCHMARK(BM_DeficientSolve)->ArgsProduct({{8, 32, 64}, {0, 1}});
-BENCHMARK(BM_ProjectVelocities)->ArgsProduct({{8, 32, 64}, {0, 1}});
+BENCHMARK(BM_ProjectVelocities)->ArgsProduct({{8, 32, 64, 128}, {0, 1}});
+BENCHMARK(BM_CollisionMatrix)->Arg(8)->Arg(32)->Arg(64)->Arg(128);
+BENCHMARK(BM_FitRolls)->Arg(8)->Arg(32)->Arg(64)->Arg(128);
 int main(int argc, char** argv) {
   keep_freed_memory();  // as ringsim's main: the allocator is part of what is timed
   benchmark::Initialize(&argc, argv);

@@ -135,6 +135,15 @@ void MultiplierSolve::compute(const Eigen::MatrixXd& g, const InverseMassBlocks&
   factor(options);
 }
 
+void MultiplierSolve::compute(const BlockRows& g, const InverseMassBlocks& minv, Options options) {
+  rows_ = g.rows();
+  keep_minv_gt_ = options.keep_minv_gt = false;
+  full_ = cut_short_ = sparse_ = false;
+  plan_sparse_ = !options.rank_revealing && rows_ > 0 && rows_ >= options.sparse_from_rows;
+  assemble(g, minv);
+  factor(options);
+}
+
 void MultiplierSolve::factor(const Options& options) {
   if (rows_ == 0) return;
   // Equilibrated in place: s_ holds S~ from here on (s() gives S back).
@@ -169,21 +178,22 @@ namespace {
 
 // One block's share of the assembly: S += G_i M_i^-1 G_i^T on the rows that
 // touch block i, each product computed once and added to both (a, c) and
-// (c, a); agt (W x rows scratch) receives M_i^-1 g_r^T of the k-th touched
+// (c, a); row_at(k) is G's row of the k-th touched row in block i's
+// columns; agt (W x rows scratch) receives M_i^-1 g_r^T of the k-th touched
 // row in its column k, and, when minv_gt is given, body i's rows of M^-1 G^T
 // (zero in the other columns).
-template <int W>
-void add_block(const Eigen::MatrixXd& g, const Eigen::Matrix<double, 6, 6>& inv, int o, const int* touched, int n,
+template <int W, class RowAt>
+void add_block(const RowAt& row_at, const Eigen::Matrix<double, 6, 6>& inv, int o, const int* touched, int n,
                Eigen::Matrix<double, 6, Eigen::Dynamic>& agt, Eigen::MatrixXd* minv_gt, Eigen::MatrixXd& s) {
   const Eigen::Matrix<double, W, W> a = inv.topLeftCorner<W, W>();
-  for (int k = 0; k < n; ++k) agt.block<W, 1>(0, k) = a * g.block<1, W>(touched[k], o).transpose();
+  for (int k = 0; k < n; ++k) agt.block<W, 1>(0, k) = a * row_at(k).transpose();
   if (minv_gt)
     for (int k = 0; k < n; ++k) minv_gt->block<W, 1>(o, touched[k]) = agt.block<W, 1>(0, k);
   for (int kc = 0; kc < n; ++kc) {
     const int c = touched[kc];
     for (int ka = kc; ka < n; ++ka) {
       const int r = touched[ka];
-      const double src = g.block<1, W>(r, o).dot(agt.block<W, 1>(0, kc));
+      const double src = row_at(ka).dot(agt.block<W, 1>(0, kc));
       s(r, c) += src;
       if (r != c) s(c, r) += src;
     }
@@ -192,11 +202,8 @@ void add_block(const Eigen::MatrixXd& g, const Eigen::Matrix<double, 6, 6>& inv,
 
 }  // namespace
 
-void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const RowBlocks* blocks) {
-  if (keep_minv_gt_) minv_gt_.setZero(g.cols(), rows_);
-  else minv_gt_.resize(0, 0);
-  Eigen::MatrixXd* minv_gt = keep_minv_gt_ ? &minv_gt_ : nullptr;
-  agt_.resize(6, rows_);
+void MultiplierSolve::find_touched(const Eigen::MatrixXd* g, const InverseMassBlocks& minv, const RowBlocks* blocks,
+                                   int cols) {
   const int nb = int(minv.offset.size());
   // touched_[start_[i], start_[i + 1]): the rows with entries in block i's
   // columns, in increasing order. From `blocks` when given (O(rows));
@@ -204,23 +211,29 @@ void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const InverseMassBlocks
   start_.assign(nb + 1, 0);
   touched_.clear();
   if (blocks) {
-    block_at_.assign(g.cols(), -1);
+    block_at_.assign(cols, -1);
     for (int i = 0; i < nb; ++i) block_at_[minv.offset[i]] = i;
     for (int r = 0; r < rows_; ++r)
       for (const int o : (*blocks)[r])
         if (o >= 0) ++start_[block_at_[o] + 1];
     for (int i = 0; i < nb; ++i) start_[i + 1] += start_[i];
     touched_.resize(start_[nb]);
+    touched_slot_.resize(start_[nb]);
     fill_.assign(start_.begin(), start_.end() - 1);
     for (int r = 0; r < rows_; ++r)
-      for (const int o : (*blocks)[r])
-        if (o >= 0) touched_[fill_[block_at_[o]]++] = r;
+      for (int k = 0; k < 3; ++k) {
+        const int o = (*blocks)[r][k];
+        if (o < 0) continue;
+        const int at = fill_[block_at_[o]]++;
+        touched_[at] = r;
+        touched_slot_[at] = k;
+      }
   } else {
     for (int i = 0; i < nb; ++i) {
       const int o = minv.offset[i], w = minv.width[i];
       for (int r = 0; r < rows_; ++r) {
         bool any = false;
-        for (int k = 0; k < w; ++k) any |= g.data()[Eigen::Index(o + k) * rows_ + r] != 0.0;
+        for (int k = 0; k < w; ++k) any |= g->data()[Eigen::Index(o + k) * rows_ + r] != 0.0;
         if (any) touched_.push_back(r);
       }
       start_[i + 1] = int(touched_.size());
@@ -243,11 +256,35 @@ void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const InverseMassBlocks
     }
   }
   s_is_pattern_ = plan_sparse_;
-  for (int i = 0; i < nb; ++i) {
+}
+
+void MultiplierSolve::assemble(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const RowBlocks* blocks) {
+  if (keep_minv_gt_) minv_gt_.setZero(g.cols(), rows_);
+  else minv_gt_.resize(0, 0);
+  Eigen::MatrixXd* minv_gt = keep_minv_gt_ ? &minv_gt_ : nullptr;
+  agt_.resize(6, rows_);
+  find_touched(&g, minv, blocks, int(g.cols()));
+  for (int i = 0; i < int(minv.offset.size()); ++i) {
     const int o = minv.offset[i], n = start_[i + 1] - start_[i];
     const int* rows = touched_.data() + start_[i];
-    if (minv.width[i] == 6) add_block<6>(g, minv.inv[i], o, rows, n, agt_, minv_gt, s_);
-    else add_block<3>(g, minv.inv[i], o, rows, n, agt_, minv_gt, s_);
+    if (minv.width[i] == 6)
+      add_block<6>([&](int k) { return g.block<1, 6>(rows[k], o); }, minv.inv[i], o, rows, n, agt_, minv_gt, s_);
+    else
+      add_block<3>([&](int k) { return g.block<1, 3>(rows[k], o); }, minv.inv[i], o, rows, n, agt_, minv_gt, s_);
+  }
+}
+
+void MultiplierSolve::assemble(const BlockRows& g, const InverseMassBlocks& minv) {
+  minv_gt_.resize(0, 0);
+  agt_.resize(6, rows_);
+  find_touched(nullptr, minv, &g.blocks, g.cols);
+  for (int i = 0; i < int(minv.offset.size()); ++i) {
+    const int o = minv.offset[i], n = start_[i + 1] - start_[i];
+    if (n == 0) continue;  // a sphere with no joint (width 3): in no row
+    const int* rows = touched_.data() + start_[i];
+    const int* slots = touched_slot_.data() + start_[i];
+    add_block<6>([&](int k) { return g.values.block<1, 6>(rows[k], 6 * slots[k]); }, minv.inv[i], o, rows, n, agt_,
+                 nullptr, s_);
   }
 }
 
@@ -432,17 +469,16 @@ void ConstraintLoads::add(const std::vector<CompliantBody>& bodies, const JointS
     if (hc.host[i] >= 0) x_.segment<3>(m.layout.offset[i]) -= m.mass[i] * hc.c[i];
   p_.gather(m, x_, fr_);
 
-  hosted_joint_rows(bodies, hc, joints, g_, bias_, &blocks_);
+  hosted_joint_rows(bodies, hc, joints, g_, bias_);
   MultiplierSolve::Options options;
-  options.keep_minv_gt = false;  // the loads need no M^-1 G^T
-  options.blocks = &blocks_;
   options.any_solution = true;  // the loads read G^T lambda only
   solve_.compute(g_, p_.minv, options);
   p_.minv.times(fr_, y_);
-  lambda_ = -bias_;
-  lambda_.noalias() -= g_ * y_;
+  lambda_ = bias_;
+  g_.add_times(y_, lambda_);
+  lambda_ = -lambda_;
   solve_.solve_in_place(lambda_);
-  fr_.noalias() += g_.transpose() * lambda_;  // the reduced load f_r + G_r^T lambda
+  g_.add_transpose_times(lambda_, fr_);  // the reduced load f_r + G_r^T lambda
   p_.minv.times(fr_, y_);
   p_.scatter(m, y_, acc_);
   for (std::size_t i = 0; i < bodies.size(); ++i)

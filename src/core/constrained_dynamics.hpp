@@ -20,9 +20,10 @@
 // squares otherwise. Rank decisions elsewhere (internal_dof) use the same
 // threshold on the same matrix.
 //
-// G and S are stored dense, S assembled body by body from G's nonzero rows
-// (M is block diagonal, and a row touches 2 or 3 bodies), not by a dense
-// product. From kSparseFromRows rows on S is factored sparse
+// S is stored dense and assembled body by body from G's nonzero rows (M is
+// block diagonal, and a row touches 2 or 3 bodies), not by a dense product;
+// the right-hand side and the projections keep G by its rows' body blocks
+// (core/joints.hpp, BlockRows), the rest (rank tests, rare decisions) dense. From kSparseFromRows rows on S is factored sparse
 // (core/sparse_ldlt.hpp), touching only its pattern and L's: a cluster is a
 // tree of bonds with a few rings, and the dense factorization's O(rows^3)
 // was the largest cost of Scenario 1's large clusters.
@@ -132,6 +133,9 @@ class MultiplierSolve {
   // Factors S for new G and M^-1 in this object's storage (no allocation
   // when the sizes are those of the last call: the right-hand side's case).
   void compute(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const Options& options);
+  // The same from G stored by row blocks (options.blocks and keep_minv_gt
+  // are not read: the blocks are G's own, and M^-1 G^T is not kept).
+  void compute(const BlockRows& g, const InverseMassBlocks& minv, Options options);
   Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;  // minimum-norm lambda of S lambda = rhs
   void solve_in_place(Eigen::VectorXd& x) const;  // x <- solve(x)
   int rank() const {
@@ -148,6 +152,11 @@ class MultiplierSolve {
 
  private:
   void assemble(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const RowBlocks* blocks);  // minv_gt_, s_
+  void assemble(const BlockRows& g, const InverseMassBlocks& minv);                                // s_
+  // touched_ and start_ (and touched_slot_ from blocks) for `blocks`, or
+  // read from G's columns when null; then S cleared on its pattern or
+  // wholly (a new pattern analysed).
+  void find_touched(const Eigen::MatrixXd* g, const InverseMassBlocks& minv, const RowBlocks* blocks, int cols);
   void factor(const Options& options);
   void solve_factors(Eigen::VectorXd& x) const;  // x <- S~^-1 x by the LDL^T factors that serve
 
@@ -165,6 +174,7 @@ class MultiplierSolve {
   // Assembly scratch: touched_[start_[i], start_[i + 1]) the rows that touch
   // block i; block_at_ a first column's block; fill_ the next free slot.
   std::vector<int> touched_, start_, block_at_, fill_;
+  std::vector<int> touched_slot_;  // with blocks: each touched row's slot k (blocks[row][k] is the block)
   Eigen::Matrix<double, 6, Eigen::Dynamic> agt_;  // assembly scratch: M_i^-1 g_r^T of those rows
   Eigen::VectorXd scale_;  // D^-1/2: the factors are of S~ = D^-1/2 S D^-1/2
   Eigen::MatrixXd minv_gt_, s_;  // s_: S while assembled, then S~ (equilibrated)
@@ -238,8 +248,7 @@ class ConstraintLoads {
   MassMatrix m_;
   HostedProblem p_;
   MultiplierSolve solve_;
-  RowBlocks blocks_;
-  Eigen::MatrixXd g_;
+  BlockRows g_;
   Eigen::VectorXd f_, x_, fr_, y_, bias_, lambda_, acc_;
 };
 

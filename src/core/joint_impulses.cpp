@@ -20,26 +20,14 @@ Eigen::MatrixXd point_velocity_rows(const std::vector<CompliantBody>& bodies, co
 }
 
 Mat3 collision_matrix(const std::vector<CompliantBody>& bodies, const JointSet& joints, const Eigen::MatrixXd& c) {
+  // K = C W C^T with W = M^-1 - M^-1 G^T S^+ G M^-1, the inverse mass the
+  // joints leave: W C^T is M^-1 C^T projected M-orthogonally onto the null
+  // space of G, three corrections on the hosted problem with one
+  // factorization (any solution serves: G M^-1 C^T lies in the range of G).
   const MassMatrix m(bodies);
-  const Eigen::MatrixXd minv_ct = m.inverse_times(Eigen::MatrixXd(c.transpose()));  // M^-1 C^T
-  Mat3 k = c * minv_ct;
-  if (!joints.empty()) {
-    // C M^-1 G^T S^+ G M^-1 C^T = B^T S^+ B with B = G M^-1 C^T: three
-    // solves, not W's n.
-    JointRows rows;
-    joint_rows(bodies, m.layout, joints, rows);
-    // B's columns lie in the range of S (B = G X), so any solution gives
-    // the same B^T lambda = C M^-1 (G^T lambda): the LDL^T cut short serves
-    // where S is rank deficient, not the complete orthogonal decomposition.
-    MultiplierSolve::Options options;
-    options.any_solution = true;
-    MultiplierSolve solve;
-    solve.compute(rows.g, m.inverse_blocks(), options);
-    const Eigen::MatrixXd b = rows.g * minv_ct;
-    Eigen::MatrixXd sb(b.rows(), 3);
-    for (int col = 0; col < 3; ++col) sb.col(col) = solve.solve(b.col(col));
-    k -= b.transpose() * sb;
-  }
+  const Eigen::MatrixXd w_ct =
+      project_onto_joints_null_space(bodies, joints, m, m.inverse_times(Eigen::MatrixXd(c.transpose())));
+  const Mat3 k = c * w_ct;
   return 0.5 * (k + k.transpose());  // symmetric to round-off
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/constrained_dynamics.hpp"
+#include "core/sparse_ldlt.hpp"
 
 namespace ringsim {
 namespace {
@@ -31,10 +32,8 @@ class HostedCorrection {
                    bool any_solution, MultiplierSolve* solve)
       : joints_(joints), m_(m), p_(bodies, joints, m), solve_(solve ? *solve : own_) {
     Eigen::VectorXd bias;
-    RowBlocks blocks;
-    hosted_joint_rows(bodies, p_.columns, joints, g_, bias, &blocks);
+    hosted_joint_rows(bodies, p_.columns, joints, g_, bias);
     MultiplierSolve::Options options;
-    options.blocks = &blocks;
     options.any_solution = any_solution;
     solve_.compute(g_, p_.minv, options);
   }
@@ -53,20 +52,27 @@ class HostedCorrection {
     }
     const int held = hc.rows - row;
     b.tail(held) = -r.tail(held);
-    const Eigen::VectorXd y0 = -p_.minv.times(p_.gather(m_, m_.times(e)));
-    const Eigen::VectorXd y = y0 + solve_.minv_gt() * solve_.solve(b - g_ * y0);
+    // y = y0 + M_r^-1 G_r^T lambda, S_r lambda = b - G_r y0.
+    Eigen::VectorXd y = -p_.minv.times(p_.gather(m_, m_.times(e)));
+    Eigen::VectorXd gy = Eigen::VectorXd::Zero(hc.rows);
+    g_.add_times(y, gy);
+    Eigen::VectorXd lambda = b - gy;
+    solve_.solve_in_place(lambda);
+    Eigen::VectorXd gtl = Eigen::VectorXd::Zero(hc.size);
+    g_.add_transpose_times(lambda, gtl);
+    y += p_.minv.times(gtl);
     return p_.scatter(m_, y) + e;
   }
 
   const HostedProblem& problem() const { return p_; }
-  const Eigen::MatrixXd& g() const { return g_; }
+  const BlockRows& g() const { return g_; }
   const MultiplierSolve& solve() const { return solve_; }
 
  private:
   const JointSet& joints_;
   const MassMatrix& m_;
   HostedProblem p_;
-  Eigen::MatrixXd g_;
+  BlockRows g_;
   MultiplierSolve own_;
   MultiplierSolve& solve_;
 };
@@ -78,16 +84,15 @@ VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const 
   VelocityProjection r;
   if (joints.empty()) return r;
   const MassMatrix m(bodies);
-  JointRows rows;
-  joint_rows(bodies, m.layout, joints, rows);
   const Eigen::VectorXd nu = velocity_vector(bodies, m.layout);
-  const Eigen::VectorXd gv = rows.g * nu;
+  Eigen::VectorXd gv;
+  joint_rates(bodies, m.layout, joints, nu, gv);
   // The minimum of |nu1 - nu|_M over G nu1 = 0: nu plus the M-smallest
   // correction with G dnu = -G nu, on the hosted problem.
   const HostedCorrection correction(bodies, joints, m, true, workspace);
   const Eigen::VectorXd nu1 = nu + correction(gv);
   const HostedProblem& p = correction.problem();
-  const Eigen::MatrixXd& g = correction.g();
+  const BlockRows& g = correction.g();
   const MultiplierSolve& solve = correction.solve();
   const int balls = 3 * int(joints.balls.size()), held = joints.rows() - balls;
   if (held_sines && held > 0) {
@@ -95,48 +100,105 @@ VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const 
     // coordinates, is its part clear of that span (the Schur complement,
     // the same in both problems: T M_r^-1 T^T is M^-1 restricted to the host
     // joints' null space) over its own size g M^-1 g^T; the reduced solve
-    // gives that part as sine_r^2 (S_r)_ii. The held rows come last.
+    // gives that part as sine_r^2 (S_r)_ii. The held rows come last, and
+    // they touch linkers only, on their omega columns: g M^-1 g^T in
+    // maximal coordinates is the sum over the row's linkers of
+    // g_omega^T I^-1 g_omega, and (S_r)_ii the row's blocks' g M_r^-1 g^T.
     const Eigen::VectorXd s2 = solve.row_sines2(p.columns.rows - held);
     r.weakest_held_sine2 = s2.size() == 0 ? -1.0 : 1.0;
-    for (int k = 0; k < int(s2.size()); ++k) {
-      const int i = p.columns.rows - held + k;
-      const Eigen::VectorXd gi = rows.g.row(balls + k).transpose();
-      const double s_full = gi.dot(m.inverse_times(gi));
-      r.weakest_held_sine2 = std::min(r.weakest_held_sine2, s2[k] * g.row(i).dot(solve.minv_gt().col(i)) / s_full);
+    if (s2.size() > 0) {
+      std::vector<int> body_at(p.columns.size, -1), block_at(p.columns.size, -1);
+      for (std::size_t i = 0; i < bodies.size(); ++i)
+        if (p.columns.host[i] < 0) body_at[p.columns.offset[i]] = int(i);
+      for (std::size_t i = 0; i < p.minv.offset.size(); ++i) block_at[p.minv.offset[i]] = int(i);
+      for (int k = 0; k < int(s2.size()); ++k) {
+        const int i = p.columns.rows - held + k;
+        double s_full = 0.0, s_reduced = 0.0;
+        for (int slot = 0; slot < 3; ++slot) {
+          const int o = g.blocks[i][slot];
+          if (o < 0) continue;
+          const Eigen::Matrix<double, 6, 1> gi = g.values.block<1, 6>(i, 6 * slot).transpose();
+          s_full += gi.tail<3>().dot(m.inv_inertia[body_at[o]] * gi.tail<3>());
+          s_reduced += gi.dot(p.minv.inv[block_at[o]] * gi);
+        }
+        r.weakest_held_sine2 = std::min(r.weakest_held_sine2, s2[k] * s_reduced / s_full);
+      }
     }
   }
   set_velocities(bodies, m.layout, nu1);
+  Eigen::VectorXd gv1;
+  joint_rates(bodies, m.layout, joints, nu1, gv1);
   r.residual_before = max_abs(gv);
-  r.residual_after = max_abs(rows.g * nu1);
+  r.residual_after = max_abs(gv1);
   r.energy_change = 0.5 * (nu1.dot(m.times(nu1)) - nu.dot(m.times(nu)));
   return r;
+}
+
+Eigen::MatrixXd project_onto_joints_null_space(const std::vector<CompliantBody>& bodies, const JointSet& joints,
+                                               const MassMatrix& m, Eigen::MatrixXd x) {
+  if (joints.empty()) return x;
+  // Each column's G x lies in the range of G: any multipliers serve.
+  const HostedCorrection correction(bodies, joints, m, true, nullptr);
+  Eigen::VectorXd gx;
+  for (Eigen::Index col = 0; col < x.cols(); ++col) {
+    const Eigen::VectorXd xc = x.col(col);
+    joint_rates(bodies, m.layout, joints, xc, gx);
+    x.col(col) += correction(gx);
+  }
+  return x;
 }
 
 RollFit fit_rolls(std::vector<CompliantBody>& bodies, const JointSet& joints, int max_iterations) {
   RollFit r;
   if (joints.empty()) return r;
-  std::vector<int> linkers;
+  std::vector<int> roll(bodies.size(), -1);  // per body: its roll's unknown (linkers)
+  int n = 0;
   for (std::size_t i = 0; i < bodies.size(); ++i)
-    if (bodies[i].shape == Shape::Linker) linkers.push_back(static_cast<int>(i));
+    if (bodies[i].shape == Shape::Linker) roll[i] = n++;
   const VelocityLayout layout(bodies);
+  RollJacobian a;
+  Eigen::MatrixXd normal;
+  Eigen::VectorXd d, scale;
+  SparseLdlt ldlt;
   for (int it = 0;; ++it) {
-    JointRows rows;
-    joint_rows(bodies, layout, joints, rows);
-    const double res = max_abs(rows.c);
+    const Eigen::VectorXd c = joint_residual(bodies, joints);
+    const double res = max_abs(c);
     if (it == 0) r.residual_before = res;
     r.residual_after = res;
     if (it == max_iterations || res == 0.0) break;
-    // Columns: d C / d(roll of linker k) = G's omega columns of k times u_k.
-    Eigen::MatrixXd a(rows.c.size(), static_cast<Eigen::Index>(linkers.size()));
-    for (std::size_t k = 0; k < linkers.size(); ++k) {
-      const int o = layout.offset[linkers[k]] + 3;
-      a.col(static_cast<Eigen::Index>(k)) = rows.g.middleCols<3>(o) * bodies[linkers[k]].axis();
-    }
-    const Eigen::VectorXd d = a.completeOrthogonalDecomposition().solve(-rows.c);
+    // Least squares min |A d + C| on the rolls by the normal equations
+    // A^T A d = -A^T C: A has at most three entries per row (the linkers of
+    // a joint row), so A^T A is as sparse as the bonds, factored sparse
+    // with its unit diagonal (equilibrated) and its nearly dependent rolls
+    // dropped (core/sparse_ldlt.hpp; a roll that moves no anchor is a zero
+    // row, its unknown zero). The dense least squares on A (complete
+    // orthogonal decomposition of rows x linkers) was a fifth of a late
+    // Scenario 1 replicate (docs/ARTICULATED.md, "Cost"). Squaring A's
+    // condition is harmless here: the step is only kept when it lowers
+    // max |C|.
+    roll_jacobian(bodies, layout, joints, a);
+    normal.setZero(n, n);
+    d.setZero(n);
+    for (std::size_t row = 0; row < a.linker.size(); ++row)
+      for (int i = 0; i < 3; ++i) {
+        const int li = a.linker[row][i];
+        if (li < 0) continue;
+        d[roll[li]] -= a.value[row][i] * c[Eigen::Index(row)];
+        for (int j = 0; j < 3; ++j)
+          if (a.linker[row][j] >= 0) normal(roll[li], roll[a.linker[row][j]]) += a.value[row][i] * a.value[row][j];
+      }
+    const double zero = kZeroRow * (n > 0 ? normal.diagonal().maxCoeff() : 0.0);
+    scale = normal.diagonal().unaryExpr([zero](double x) { return x > zero ? 1.0 / std::sqrt(x) : 0.0; });
+    normal = scale.asDiagonal() * normal * scale.asDiagonal();  // a zero row stays zero
+    if (!ldlt.compute(normal, kRankThreshold)) break;
+    d.array() *= scale.array();
+    ldlt.solve_in_place(d);
+    d.array() *= scale.array();
     std::vector<CompliantBody> trial = bodies;
-    for (std::size_t k = 0; k < linkers.size(); ++k) {
-      CompliantBody& b = trial[linkers[k]];
-      b.q = (Quat(Eigen::AngleAxisd(d[static_cast<Eigen::Index>(k)], b.axis())) * b.q).normalized();
+    for (std::size_t i = 0; i < bodies.size(); ++i) {
+      if (roll[i] < 0 || d[roll[i]] == 0.0) continue;
+      CompliantBody& b = trial[i];
+      b.q = (Quat(Eigen::AngleAxisd(d[roll[i]], b.axis())) * b.q).normalized();
     }
     if (!(max_abs(joint_residual(trial, joints)) < res)) break;  // no gain: keep the better state
     bodies.swap(trial);

@@ -32,6 +32,7 @@
 namespace ringsim {
 
 class MultiplierSolve;  // core/constrained_dynamics.hpp
+struct MassMatrix;      // core/constrained_dynamics.hpp
 
 struct VelocityProjection {
   double residual_before = 0.0;  // max |G nu| before
@@ -49,6 +50,14 @@ struct VelocityProjection {
 // of the call's own. The results do not depend on it.
 VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const JointSet& joints,
                                       bool held_sines = false, MultiplierSolve* workspace = nullptr);
+
+// Each column of x (velocity coordinates in m's layout) projected
+// M-orthogonally onto the null space of G, x - M^-1 G^T S^+ G x, on the
+// hosted problem as project_velocities: with x = M^-1 C^T, the velocities
+// an impulse C^T p leaves per unit p once the joints have answered it
+// (core/joint_impulses.hpp, collision_matrix: K = C x).
+Eigen::MatrixXd project_onto_joints_null_space(const std::vector<CompliantBody>& bodies, const JointSet& joints,
+                                               const MassMatrix& m, Eigen::MatrixXd x);
 
 // The linkers' rolls about their own axes that best satisfy the joints
 // (Gauss-Newton on the roll angles alone, least squares, at most

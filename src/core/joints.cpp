@@ -234,15 +234,65 @@ void HostedColumns::assign(const std::vector<CompliantBody>& bodies, const Joint
 
 namespace {
 
+// Where write_rows puts G's entries: add(row, body, inner, m) adds the
+// block m (1 or 3 rows, 3 columns) at the row `row` and the columns
+// body + inner .. + 2 (body: the body's first column; inner: 0 for v,
+// 3 for omega).
+struct DenseSink {
+  Eigen::MatrixXd& g;
+  template <class M>
+  void add(int row, int body, int inner, const M& m) {
+    g.block<M::RowsAtCompileTime, 3>(row, body + inner) += m;
+  }
+};
+// G nu without G: each block times nu's entries in its columns.
+struct ProductSink {
+  const Eigen::VectorXd& nu;
+  Eigen::VectorXd& out;
+  template <class M>
+  void add(int row, int body, int inner, const M& m) {
+    out.segment<M::RowsAtCompileTime>(row) += m * nu.segment<3>(body + inner);
+  }
+};
+// The rows' omega blocks times their linker's axis (roll_jacobian).
+struct RollSink {
+  const std::vector<CompliantBody>& bodies;
+  const std::vector<int>& body_at;  // per column: the body whose first column it is
+  RollJacobian& out;
+  template <class M>
+  void add(int row, int body, int inner, const M& m) {
+    if (inner != 3) return;
+    const int b = body_at[body];
+    const Eigen::Matrix<double, M::RowsAtCompileTime, 1> d = m * bodies[b].axis();
+    for (int i = 0; i < M::RowsAtCompileTime; ++i) {
+      std::array<int, 3>& l = out.linker[row + i];
+      const int k = l[0] == b || l[0] < 0 ? 0 : l[1] == b || l[1] < 0 ? 1 : 2;
+      l[k] = b;
+      out.value[row + i][k] += d[i];
+    }
+  }
+};
+// Into BlockRows: the body's slot in the row's blocks (marked before).
+struct BlockSink {
+  BlockRows& g;
+  template <class M>
+  void add(int row, int body, int inner, const M& m) {
+    const std::array<int, 3>& b = g.blocks[row];
+    const int k = b[0] == body ? 0 : b[1] == body ? 1 : 2;
+    g.values.block<M::RowsAtCompileTime, 3>(row, 6 * k + inner) += m;
+  }
+};
+
 // G and the bias (dG/dt) nu on the columns `offset` (per body), the rows of
 // the host joints left out; a hosted sphere's point velocity is its host's
 // at the joint point (HostedColumns). `hosted` null: every body has its
 // own columns and every row is written.
+template <class Sink>
 void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>& offset,
-                const HostedColumns* hosted, const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias,
+                const HostedColumns* hosted, const JointSet& joints, Sink& g, Eigen::VectorXd& bias,
                 RowBlocks* blocks) {
   int row = 0;
-  if (blocks) blocks->resize(g.rows());
+  if (blocks) blocks->resize(bias.size());
   // Each body block once (-1 for a repeat: a dihedral whose two
   // neighbours are one linker, in a ring of two, names it twice).
   auto mark = [blocks](int r, int a, int b, int c) {
@@ -258,16 +308,16 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     const BallJoint& j = joints.balls[k];
     const CompliantBody& l = bodies[j.linker];
     const Vec3 r = l.q * j.anchor;
-    const int os = offset[j.sphere];
-    g.block<3, 3>(row, os) += Mat3::Identity();
+    const int os = offset[j.sphere], ol = offset[j.linker];
+    for (int i = 0; i < 3; ++i) mark(row + i, os, ol, -1);
+    g.add(row, os, 0, Mat3::Identity());
     bias.segment<3>(row) = -l.omega.cross(l.omega.cross(r));
     if (hosted && hosted->host[j.sphere] >= 0) {
-      g.block<3, 3>(row, os + 3) -= cross_matrix(hosted->arm[j.sphere]);
+      g.add(row, os, 3, Mat3(-cross_matrix(hosted->arm[j.sphere])));
       bias.segment<3>(row) += hosted->c[j.sphere];
     }
-    g.block<3, 3>(row, offset[j.linker]) -= Mat3::Identity();
-    g.block<3, 3>(row, offset[j.linker] + 3) += cross_matrix(r);
-    for (int i = 0; i < 3; ++i) mark(row + i, os, offset[j.linker], -1);
+    g.add(row, ol, 0, Mat3(-Mat3::Identity()));
+    g.add(row, ol, 3, cross_matrix(r));
     row += 3;
   }
 
@@ -279,11 +329,11 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     const Vec3 na = outward(la, a.end_a), nb = outward(lb, a.end_b);
     const double s0 = std::sin(a.theta0);
     const Vec3 c = na.cross(nb);
-    g.block<1, 3>(row, offset[a.linker_a] + 3) -= c.transpose() / s0;
-    g.block<1, 3>(row, offset[a.linker_b] + 3) += c.transpose() / s0;
+    mark(row, offset[a.linker_a], offset[a.linker_b], -1);
+    g.add(row, offset[a.linker_a], 3, Eigen::RowVector3d(-c.transpose() / s0));
+    g.add(row, offset[a.linker_b], 3, Eigen::RowVector3d(c.transpose() / s0));
     const Vec3 dc = la.omega.cross(na).cross(nb) + na.cross(lb.omega.cross(nb));
     bias[row] = -dc.dot(la.omega - lb.omega) / s0;
-    mark(row, offset[a.linker_a], offset[a.linker_b], -1);
     ++row;
   }
 
@@ -299,9 +349,10 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     const double c0 = u.dot(n0), c1 = u.dot(n1);
     Vec3 g_m, g_0, g_1;
     held_dihedral_gradient(u, n0, n1, d.phi0, g_m, g_0, g_1);
-    g.block<1, 3>(row, offset[d.linker] + 3) += g_m.transpose();
-    g.block<1, 3>(row, offset[d.nb0] + 3) += g_0.transpose();
-    g.block<1, 3>(row, offset[d.nb1] + 3) += g_1.transpose();
+    mark(row, offset[d.linker], offset[d.nb0], offset[d.nb1]);
+    g.add(row, offset[d.linker], 3, Eigen::RowVector3d(g_m.transpose()));
+    g.add(row, offset[d.nb0], 3, Eigen::RowVector3d(g_0.transpose()));
+    g.add(row, offset[d.nb1], 3, Eigen::RowVector3d(g_1.transpose()));
 
     const Vec3 du = lm.omega.cross(u), dn0 = l0.omega.cross(n0), dn1 = l1.omega.cross(n1);
     const Vec3 ddu = lm.omega.cross(du), ddn0 = l0.omega.cross(dn0), ddn1 = l1.omega.cross(dn1);
@@ -312,7 +363,6 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     const double ddc1 = ddu.dot(n1) + 2.0 * du.dot(dn1) + u.dot(ddn1);
     const double ddb = ddn0.dot(n1) + 2.0 * dn0.dot(dn1) + n0.dot(ddn1) - (ddc0 * c1 + 2.0 * dc0 * dc1 + c0 * ddc1);
     bias[row] = cp * dda - sp * ddb;
-    mark(row, offset[d.linker], offset[d.nb0], offset[d.nb1]);
     ++row;
   }
 }
@@ -324,14 +374,64 @@ void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& 
   out.c = joint_residual(bodies, joints);
   out.g.setZero(joints.rows(), layout.size);
   out.bias.setZero(joints.rows());
-  write_rows(bodies, layout.offset, nullptr, joints, out.g, out.bias, nullptr);
+  DenseSink sink{out.g};
+  write_rows(bodies, layout.offset, nullptr, joints, sink, out.bias, nullptr);
+}
+
+void joint_rates(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
+                 const Eigen::VectorXd& nu, Eigen::VectorXd& out) {
+  out.setZero(joints.rows());
+  Eigen::VectorXd bias(joints.rows());
+  ProductSink sink{nu, out};
+  write_rows(bodies, layout.offset, nullptr, joints, sink, bias, nullptr);
+}
+
+void roll_jacobian(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
+                   RollJacobian& out) {
+  out.linker.assign(joints.rows(), {-1, -1, -1});
+  out.value.assign(joints.rows(), {0.0, 0.0, 0.0});
+  std::vector<int> body_at(layout.size, -1);
+  for (std::size_t i = 0; i < bodies.size(); ++i) body_at[layout.offset[i]] = int(i);
+  Eigen::VectorXd bias(joints.rows());
+  RollSink sink{bodies, body_at, out};
+  write_rows(bodies, layout.offset, nullptr, joints, sink, bias, nullptr);
 }
 
 void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedColumns& columns,
                        const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias, RowBlocks* blocks) {
   g.setZero(columns.rows, columns.size);
   bias.setZero(columns.rows);
-  write_rows(bodies, columns.offset, &columns, joints, g, bias, blocks);
+  DenseSink sink{g};
+  write_rows(bodies, columns.offset, &columns, joints, sink, bias, blocks);
+}
+
+void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedColumns& columns,
+                       const JointSet& joints, BlockRows& g, Eigen::VectorXd& bias) {
+  g.cols = columns.size;
+  g.values.setZero(columns.rows, 18);
+  bias.setZero(columns.rows);
+  BlockSink sink{g};
+  write_rows(bodies, columns.offset, &columns, joints, sink, bias, &g.blocks);
+}
+
+void BlockRows::add_times(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+  for (int r = 0; r < rows(); ++r)
+    for (int k = 0; k < 3; ++k)
+      if (blocks[r][k] >= 0) y[r] += values.block<1, 6>(r, 6 * k).dot(x.segment<6>(blocks[r][k]));
+}
+
+void BlockRows::add_transpose_times(const Eigen::VectorXd& l, Eigen::VectorXd& y) const {
+  for (int r = 0; r < rows(); ++r)
+    for (int k = 0; k < 3; ++k)
+      if (blocks[r][k] >= 0) y.segment<6>(blocks[r][k]) += l[r] * values.block<1, 6>(r, 6 * k).transpose();
+}
+
+Eigen::MatrixXd BlockRows::dense() const {
+  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(rows(), cols);
+  for (int r = 0; r < rows(); ++r)
+    for (int k = 0; k < 3; ++k)
+      if (blocks[r][k] >= 0) g.block<1, 6>(r, blocks[r][k]) = values.block<1, 6>(r, 6 * k);
+  return g;
 }
 
 }  // namespace ringsim

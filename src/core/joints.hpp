@@ -161,6 +161,22 @@ double held_dihedral_residual(const Vec3& u, const Vec3& n0, const Vec3& n1, dou
 void held_dihedral_gradient(const Vec3& u, const Vec3& n0, const Vec3& n1, double phi0, Vec3& g_m, Vec3& g_0,
                             Vec3& g_1);
 
+// G nu (one value per joint row, in joint_rows' order) at the present pose
+// for velocity coordinates nu in `layout`, row by row without forming G:
+// O(rows) where G nu with the dense G is O(rows x columns).
+void joint_rates(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
+                 const Eigen::VectorXd& nu, Eigen::VectorXd& out);
+
+// d C / d(roll of a linker about its own axis) = G's omega columns of that
+// linker times its axis u, per joint row, for the linkers the row involves
+// (at most three; -1 fills): linker[r][k] (an index into bodies), value[r][k].
+struct RollJacobian {
+  std::vector<std::array<int, 3>> linker;
+  std::vector<std::array<double, 3>> value;
+};
+void roll_jacobian(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
+                   RollJacobian& out);
+
 // C, G (rows x layout.size) and the bias (dG/dt) nu at the present velocities.
 struct JointRows {
   Eigen::VectorXd c;
@@ -202,5 +218,26 @@ using RowBlocks = std::vector<std::array<int, 3>>;
 void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedColumns& columns,
                        const JointSet& joints, Eigen::MatrixXd& g, Eigen::VectorXd& bias,
                        RowBlocks* blocks = nullptr);
+
+// The hosted problem's G stored by its rows' body blocks: every body a row
+// touches there has six columns (a linker, or a linker with the spheres it
+// hosts; a sphere with no joint is in no row), so row r holds its entries
+// in columns blocks[r][k] .. blocks[r][k] + 5 as values(r, 6k .. 6k + 5)
+// and is zero elsewhere. Storage, zeroing and products are O(rows) where
+// the dense G's are O(rows x columns): at 381 rows (a chain of 128
+// corners) the dense G's zeroing and its two products were 60 % of the
+// right-hand side (docs/ARTICULATED.md, "Cost").
+struct BlockRows {
+  int cols = 0;
+  RowBlocks blocks;
+  Eigen::Matrix<double, Eigen::Dynamic, 18, Eigen::RowMajor> values;
+
+  int rows() const { return int(values.rows()); }
+  void add_times(const Eigen::VectorXd& x, Eigen::VectorXd& y) const;            // y += G x
+  void add_transpose_times(const Eigen::VectorXd& l, Eigen::VectorXd& y) const;  // y += G^T l
+  Eigen::MatrixXd dense() const;
+};
+void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedColumns& columns,
+                       const JointSet& joints, BlockRows& g, Eigen::VectorXd& bias);
 
 }  // namespace ringsim
