@@ -336,7 +336,7 @@ TEST(ConstrainedDynamics, RowBlocksGiveTheSameAssembly) {
   // order), and its products against the dense G's.
   BlockRows gb;
   Eigen::VectorXd bias;
-  hosted_joint_rows(a.cluster.bodies, p.columns, a.joints, gb, bias);
+  hosted_joint_rows(a.cluster.bodies, p.columns, a.joints, gb, &bias);
   EXPECT_TRUE(gb.dense() == g);
   EXPECT_TRUE(bias == h.bias);
   EXPECT_TRUE(gb.blocks == blocks);

@@ -96,7 +96,8 @@ void Simulation::cut_group(int g, double t) {
     // tracks have them (continuous motion); the next slice end projects them.
     const RollFit roll = fit_rolls(st.bodies, G.joints);
     stats_.cut_residual = std::max(stats_.cut_residual, roll.residual_after);
-    stats_.lost_projections -= project_velocities(st.bodies, G.joints).energy_change;
+    stats_.lost_projections -=
+        project_velocities(st.bodies, G.joints, false, &G.integ->projection_workspace()).energy_change;
   }
   G.ta = t;
   G.pending = true;

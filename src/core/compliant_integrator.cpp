@@ -580,6 +580,7 @@ void ClusterIntegrator::reinit_at(double t) {
   impl_->t = t;
   impl_->restart();
 }
+MultiplierSolve& ClusterIntegrator::projection_workspace() { return impl_->projection_solve; }
 PositionProjection ClusterIntegrator::project_onto_joints(double tolerance, bool held_sines) {
   PositionProjection r =
       project_positions(impl_->cluster.bodies, impl_->joints, tolerance, 8, held_sines, &impl_->projection_solve);

@@ -155,6 +155,10 @@ class ClusterIntegrator {
   // Gauss-Newton to max |C| <= tolerance, then velocities) and restarts the
   // method there (a reinit); returns the sizes of the correction.
   PositionProjection project_onto_joints(double tolerance, bool held_sines = false);
+  // The multiplier solve project_onto_joints keeps (its sparse analysis
+  // lasts while the joints do), for the cluster's other projections and
+  // collision matrices (core/joint_impulses.hpp).
+  MultiplierSolve& projection_workspace();
   const JointSet& joints() const;
   // Articulated: hold these joints from now on (a subset of the present
   // ones: held rows released by a rank test) and restart the method.

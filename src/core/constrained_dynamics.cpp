@@ -126,20 +126,21 @@ MultiplierSolve::MultiplierSolve(const Eigen::MatrixXd& g, const InverseMassBloc
   compute(g, minv, options);
 }
 
-void MultiplierSolve::compute(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const Options& options) {
-  rows_ = int(g.rows());
-  keep_minv_gt_ = options.keep_minv_gt;
+void MultiplierSolve::start(int rows, bool keep_minv_gt, const Options& options) {
+  rows_ = rows;
+  keep_minv_gt_ = keep_minv_gt;
   full_ = cut_short_ = sparse_ = false;
   plan_sparse_ = !options.rank_revealing && rows_ > 0 && rows_ >= options.sparse_from_rows;
+}
+
+void MultiplierSolve::compute(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const Options& options) {
+  start(int(g.rows()), options.keep_minv_gt, options);
   assemble(g, minv, options.blocks);
   factor(options);
 }
 
-void MultiplierSolve::compute(const BlockRows& g, const InverseMassBlocks& minv, Options options) {
-  rows_ = g.rows();
-  keep_minv_gt_ = options.keep_minv_gt = false;
-  full_ = cut_short_ = sparse_ = false;
-  plan_sparse_ = !options.rank_revealing && rows_ > 0 && rows_ >= options.sparse_from_rows;
+void MultiplierSolve::compute(const BlockRows& g, const InverseMassBlocks& minv, const Options& options) {
+  start(g.rows(), false, options);
   assemble(g, minv);
   factor(options);
 }
@@ -469,7 +470,7 @@ void ConstraintLoads::add(const std::vector<CompliantBody>& bodies, const JointS
     if (hc.host[i] >= 0) x_.segment<3>(m.layout.offset[i]) -= m.mass[i] * hc.c[i];
   p_.gather(m, x_, fr_);
 
-  hosted_joint_rows(bodies, hc, joints, g_, bias_);
+  hosted_joint_rows(bodies, hc, joints, g_, &bias_);
   MultiplierSolve::Options options;
   options.any_solution = true;  // the loads read G^T lambda only
   solve_.compute(g_, p_.minv, options);

@@ -135,7 +135,7 @@ class MultiplierSolve {
   void compute(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const Options& options);
   // The same from G stored by row blocks (options.blocks and keep_minv_gt
   // are not read: the blocks are G's own, and M^-1 G^T is not kept).
-  void compute(const BlockRows& g, const InverseMassBlocks& minv, Options options);
+  void compute(const BlockRows& g, const InverseMassBlocks& minv, const Options& options);
   Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;  // minimum-norm lambda of S lambda = rhs
   void solve_in_place(Eigen::VectorXd& x) const;  // x <- solve(x)
   int rank() const {
@@ -153,6 +153,7 @@ class MultiplierSolve {
  private:
   void assemble(const Eigen::MatrixXd& g, const InverseMassBlocks& minv, const RowBlocks* blocks);  // minv_gt_, s_
   void assemble(const BlockRows& g, const InverseMassBlocks& minv);                                // s_
+  void start(int rows, bool keep_minv_gt, const Options& options);  // a compute's sizes and flags
   // touched_ and start_ (and touched_slot_ from blocks) for `blocks`, or
   // read from G's columns when null; then S cleared on its pattern or
   // wholly (a new pattern analysed).

@@ -31,8 +31,7 @@ class HostedCorrection {
   HostedCorrection(const std::vector<CompliantBody>& bodies, const JointSet& joints, const MassMatrix& m,
                    bool any_solution, MultiplierSolve* solve)
       : joints_(joints), m_(m), p_(bodies, joints, m), solve_(solve ? *solve : own_) {
-    Eigen::VectorXd bias;
-    hosted_joint_rows(bodies, p_.columns, joints, g_, bias);
+    hosted_joint_rows(bodies, p_.columns, joints, g_, nullptr);  // no bias: a projection has no accelerations
     MultiplierSolve::Options options;
     options.any_solution = any_solution;
     solve_.compute(g_, p_.minv, options);
@@ -135,10 +134,10 @@ VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const 
 }
 
 Eigen::MatrixXd project_onto_joints_null_space(const std::vector<CompliantBody>& bodies, const JointSet& joints,
-                                               const MassMatrix& m, Eigen::MatrixXd x) {
+                                               const MassMatrix& m, Eigen::MatrixXd x, MultiplierSolve* workspace) {
   if (joints.empty()) return x;
   // Each column's G x lies in the range of G: any multipliers serve.
-  const HostedCorrection correction(bodies, joints, m, true, nullptr);
+  const HostedCorrection correction(bodies, joints, m, true, workspace);
   Eigen::VectorXd gx;
   for (Eigen::Index col = 0; col < x.cols(); ++col) {
     const Eigen::VectorXd xc = x.col(col);

@@ -57,7 +57,8 @@ VelocityProjection project_velocities(std::vector<CompliantBody>& bodies, const 
 // an impulse C^T p leaves per unit p once the joints have answered it
 // (core/joint_impulses.hpp, collision_matrix: K = C x).
 Eigen::MatrixXd project_onto_joints_null_space(const std::vector<CompliantBody>& bodies, const JointSet& joints,
-                                               const MassMatrix& m, Eigen::MatrixXd x);
+                                               const MassMatrix& m, Eigen::MatrixXd x,
+                                               MultiplierSolve* workspace = nullptr);
 
 // The linkers' rolls about their own axes that best satisfy the joints
 // (Gauss-Newton on the roll angles alone, least squares, at most

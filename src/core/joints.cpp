@@ -283,16 +283,17 @@ struct BlockSink {
   }
 };
 
-// G and the bias (dG/dt) nu on the columns `offset` (per body), the rows of
-// the host joints left out; a hosted sphere's point velocity is its host's
-// at the joint point (HostedColumns). `hosted` null: every body has its
-// own columns and every row is written.
+// G and, when `bias` is given (sized to the rows), the bias (dG/dt) nu on
+// the columns `offset` (per body), the rows of the host joints left out; a
+// hosted sphere's point velocity is its host's at the joint point
+// (HostedColumns). `hosted` null: every body has its own columns and every
+// row is written.
 template <class Sink>
 void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>& offset,
-                const HostedColumns* hosted, const JointSet& joints, Sink& g, Eigen::VectorXd& bias,
+                const HostedColumns* hosted, const JointSet& joints, Sink& g, Eigen::VectorXd* bias,
                 RowBlocks* blocks) {
   int row = 0;
-  if (blocks) blocks->resize(bias.size());
+  if (blocks) blocks->resize(hosted ? hosted->rows : joints.rows());
   // Each body block once (-1 for a repeat: a dihedral whose two
   // neighbours are one linker, in a ring of two, names it twice).
   auto mark = [blocks](int r, int a, int b, int c) {
@@ -311,10 +312,10 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     const int os = offset[j.sphere], ol = offset[j.linker];
     for (int i = 0; i < 3; ++i) mark(row + i, os, ol, -1);
     g.add(row, os, 0, Mat3::Identity());
-    bias.segment<3>(row) = -l.omega.cross(l.omega.cross(r));
+    if (bias) bias->segment<3>(row) = -l.omega.cross(l.omega.cross(r));
     if (hosted && hosted->host[j.sphere] >= 0) {
       g.add(row, os, 3, Mat3(-cross_matrix(hosted->arm[j.sphere])));
-      bias.segment<3>(row) += hosted->c[j.sphere];
+      if (bias) bias->segment<3>(row) += hosted->c[j.sphere];
     }
     g.add(row, ol, 0, Mat3(-Mat3::Identity()));
     g.add(row, ol, 3, cross_matrix(r));
@@ -332,8 +333,10 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     mark(row, offset[a.linker_a], offset[a.linker_b], -1);
     g.add(row, offset[a.linker_a], 3, Eigen::RowVector3d(-c.transpose() / s0));
     g.add(row, offset[a.linker_b], 3, Eigen::RowVector3d(c.transpose() / s0));
-    const Vec3 dc = la.omega.cross(na).cross(nb) + na.cross(lb.omega.cross(nb));
-    bias[row] = -dc.dot(la.omega - lb.omega) / s0;
+    if (bias) {
+      const Vec3 dc = la.omega.cross(na).cross(nb) + na.cross(lb.omega.cross(nb));
+      (*bias)[row] = -dc.dot(la.omega - lb.omega) / s0;
+    }
     ++row;
   }
 
@@ -345,15 +348,18 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
   for (const HeldDihedral& d : joints.dihedrals) {
     const CompliantBody &lm = bodies[d.linker], &l0 = bodies[d.nb0], &l1 = bodies[d.nb1];
     const Vec3 u = lm.axis(), n0 = outward(l0, d.nb0_end), n1 = outward(l1, d.nb1_end);
-    const double cp = std::cos(d.phi0), sp = std::sin(d.phi0);
-    const double c0 = u.dot(n0), c1 = u.dot(n1);
     Vec3 g_m, g_0, g_1;
     held_dihedral_gradient(u, n0, n1, d.phi0, g_m, g_0, g_1);
     mark(row, offset[d.linker], offset[d.nb0], offset[d.nb1]);
     g.add(row, offset[d.linker], 3, Eigen::RowVector3d(g_m.transpose()));
     g.add(row, offset[d.nb0], 3, Eigen::RowVector3d(g_0.transpose()));
     g.add(row, offset[d.nb1], 3, Eigen::RowVector3d(g_1.transpose()));
-
+    if (!bias) {
+      ++row;
+      continue;
+    }
+    const double cp = std::cos(d.phi0), sp = std::sin(d.phi0);
+    const double c0 = u.dot(n0), c1 = u.dot(n1);
     const Vec3 du = lm.omega.cross(u), dn0 = l0.omega.cross(n0), dn1 = l1.omega.cross(n1);
     const Vec3 ddu = lm.omega.cross(du), ddn0 = l0.omega.cross(dn0), ddn1 = l1.omega.cross(dn1);
     const double dda = ddu.dot(n0.cross(n1)) + u.dot(ddn0.cross(n1)) + u.dot(n0.cross(ddn1)) +
@@ -362,7 +368,7 @@ void write_rows(const std::vector<CompliantBody>& bodies, const std::vector<int>
     const double ddc0 = ddu.dot(n0) + 2.0 * du.dot(dn0) + u.dot(ddn0);
     const double ddc1 = ddu.dot(n1) + 2.0 * du.dot(dn1) + u.dot(ddn1);
     const double ddb = ddn0.dot(n1) + 2.0 * dn0.dot(dn1) + n0.dot(ddn1) - (ddc0 * c1 + 2.0 * dc0 * dc1 + c0 * ddc1);
-    bias[row] = cp * dda - sp * ddb;
+    (*bias)[row] = cp * dda - sp * ddb;
     ++row;
   }
 }
@@ -375,15 +381,14 @@ void joint_rows(const std::vector<CompliantBody>& bodies, const VelocityLayout& 
   out.g.setZero(joints.rows(), layout.size);
   out.bias.setZero(joints.rows());
   DenseSink sink{out.g};
-  write_rows(bodies, layout.offset, nullptr, joints, sink, out.bias, nullptr);
+  write_rows(bodies, layout.offset, nullptr, joints, sink, &out.bias, nullptr);
 }
 
 void joint_rates(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
                  const Eigen::VectorXd& nu, Eigen::VectorXd& out) {
   out.setZero(joints.rows());
-  Eigen::VectorXd bias(joints.rows());
   ProductSink sink{nu, out};
-  write_rows(bodies, layout.offset, nullptr, joints, sink, bias, nullptr);
+  write_rows(bodies, layout.offset, nullptr, joints, sink, nullptr, nullptr);
 }
 
 void roll_jacobian(const std::vector<CompliantBody>& bodies, const VelocityLayout& layout, const JointSet& joints,
@@ -392,9 +397,8 @@ void roll_jacobian(const std::vector<CompliantBody>& bodies, const VelocityLayou
   out.value.assign(joints.rows(), {0.0, 0.0, 0.0});
   std::vector<int> body_at(layout.size, -1);
   for (std::size_t i = 0; i < bodies.size(); ++i) body_at[layout.offset[i]] = int(i);
-  Eigen::VectorXd bias(joints.rows());
   RollSink sink{bodies, body_at, out};
-  write_rows(bodies, layout.offset, nullptr, joints, sink, bias, nullptr);
+  write_rows(bodies, layout.offset, nullptr, joints, sink, nullptr, nullptr);
 }
 
 void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedColumns& columns,
@@ -402,14 +406,14 @@ void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedCol
   g.setZero(columns.rows, columns.size);
   bias.setZero(columns.rows);
   DenseSink sink{g};
-  write_rows(bodies, columns.offset, &columns, joints, sink, bias, blocks);
+  write_rows(bodies, columns.offset, &columns, joints, sink, &bias, blocks);
 }
 
 void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedColumns& columns,
-                       const JointSet& joints, BlockRows& g, Eigen::VectorXd& bias) {
+                       const JointSet& joints, BlockRows& g, Eigen::VectorXd* bias) {
   g.cols = columns.size;
   g.values.setZero(columns.rows, 18);
-  bias.setZero(columns.rows);
+  if (bias) bias->setZero(columns.rows);
   BlockSink sink{g};
   write_rows(bodies, columns.offset, &columns, joints, sink, bias, &g.blocks);
 }

@@ -238,6 +238,6 @@ struct BlockRows {
   Eigen::MatrixXd dense() const;
 };
 void hosted_joint_rows(const std::vector<CompliantBody>& bodies, const HostedColumns& columns,
-                       const JointSet& joints, BlockRows& g, Eigen::VectorXd& bias);
+                       const JointSet& joints, BlockRows& g, Eigen::VectorXd* bias);  // bias: null when not needed
 
 }  // namespace ringsim

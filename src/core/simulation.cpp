@@ -579,7 +579,8 @@ void Simulation::apply_impulse(int i, const Vec3& J, const Vec3& arm) {
       // With the joint impulses it calls up (core/joint_impulses.hpp).
       // cut_group projected the velocities (G nu = 0), so this is
       // nu + W C^T J and changes the energy by what the contact law counted.
-      apply_point_impulse(G.integ->mutable_state().bodies, G.joints, cindex_[i], arm, J);
+      apply_point_impulse(G.integ->mutable_state().bodies, G.joints, cindex_[i], arm, J,
+                          &G.integ->projection_workspace());
       return;
     }
     // The member alone takes the jump (its own mass and inertia); touch() put
@@ -634,12 +635,17 @@ void Simulation::constrain_sides(int i, int j, ContactSide* a, ContactSide* b) c
   if (ga) set_state(i, *ga, a);
   if (gb) set_state(j, *gb, b);
   if (ga && ga == gb) {
-    a->k = collision_matrix(ga->integ->state().bodies, ga->joints, cindex_[i], a->arm, cindex_[j], b->arm);
+    a->k = collision_matrix(ga->integ->state().bodies, ga->joints, cindex_[i], a->arm, cindex_[j], b->arm,
+                            &ga->integ->projection_workspace());
     b->k = Mat3::Zero();
     return;
   }
-  if (ga) a->k = collision_matrix(ga->integ->state().bodies, ga->joints, cindex_[i], a->arm);
-  if (gb) b->k = collision_matrix(gb->integ->state().bodies, gb->joints, cindex_[j], b->arm);
+  if (ga)
+    a->k = collision_matrix(ga->integ->state().bodies, ga->joints, cindex_[i], a->arm,
+                            &ga->integ->projection_workspace());
+  if (gb)
+    b->k = collision_matrix(gb->integ->state().bodies, gb->joints, cindex_[j], b->arm,
+                            &gb->integ->projection_workspace());
 }
 
 void Simulation::touch(int b, double t, bool impulse) {
