@@ -127,7 +127,8 @@ bool Simulation::begin_slice(int g, double t) {
   }
   const CompliantParams& cp = params_.compliant;
   const JointSet& joints = G.joints;  // empty for compliant groups
-  const SliceEnd start = follows ? std::move(G.end) : slice_end(G.integ->state(), joints);
+  const SliceEnd start =
+      follows ? std::move(G.end) : slice_end(G.integ->state(), joints, &G.integ->loads_workspace());
   const double longest = G.articulated ? params_.bonding.joint_slice : cp.slice;
   double D = std::min(longest, G.track_slice);
   bool track_halved = false;
@@ -206,7 +207,7 @@ bool Simulation::begin_slice(int g, double t) {
     // integrated motion by more than compliant.track_tolerance (stiff bonds:
     // a slice longer than a bond period).
     // The end's accelerations make the tracks quintic (core/track.hpp).
-    G.end = slice_end(G.integ->state(), joints);
+    G.end = slice_end(G.integ->state(), joints, &G.integ->loads_workspace());
     G.end_cached = true;
     const double len = set_tracks(bodies_, G, start, t, G.end, t + D);
     bool good = len >= 0.5;

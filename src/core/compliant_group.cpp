@@ -110,10 +110,10 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const SliceEnd& ea, dou
 // omega = I^-1(u) L with I^-1 = 1/I_perp + (1/I_axial - 1/I_perp) u u^T, so
 // omega' = I^-1 tau + (1/I_axial - 1/I_perp) (u' (u.L) + u (u'.L)), u' = omega x u,
 // and u'' = omega' x u + omega x u'.
-SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints) {
+SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints, ConstraintLoads* loads) {
   const std::vector<BodyMotion> motion = body_motions(c);
   std::vector<Vec3> force, torque;
-  cluster_loads(c, joints, force, torque);
+  cluster_loads(c, joints, force, torque, loads);
   SliceEnd e;
   e.bodies = c.bodies;
   e.center_accel.resize(c.bodies.size());

@@ -29,7 +29,8 @@ struct SliceEnd {
   std::vector<CompliantBody> bodies;
   std::vector<Vec3> center_accel, axis_accel;
 };
-SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints = {});
+// `loads`: kept storage for the constraint loads (cluster_loads).
+SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints = {}, ConstraintLoads* loads = nullptr);
 
 struct CompliantGroup {
   bool alive = false;

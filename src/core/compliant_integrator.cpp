@@ -581,6 +581,7 @@ void ClusterIntegrator::reinit_at(double t) {
   impl_->restart();
 }
 MultiplierSolve& ClusterIntegrator::projection_workspace() { return impl_->projection_solve; }
+ConstraintLoads& ClusterIntegrator::loads_workspace() { return impl_->constraint_loads; }
 PositionProjection ClusterIntegrator::project_onto_joints(double tolerance, bool held_sines) {
   PositionProjection r =
       project_positions(impl_->cluster.bodies, impl_->joints, tolerance, 8, held_sines, &impl_->projection_solve);

@@ -66,6 +66,8 @@
 
 namespace ringsim {
 
+class ConstraintLoads;  // core/constrained_dynamics.hpp
+
 enum class Method { Bdf, Adams, ExplicitRk };
 enum class LinearSolver { Auto, Dense, Band };  // Bdf only
 
@@ -159,6 +161,9 @@ class ClusterIntegrator {
   // lasts while the joints do), for the cluster's other projections and
   // collision matrices (core/joint_impulses.hpp).
   MultiplierSolve& projection_workspace();
+  // The right-hand side's constraint loads (their storage and sparse
+  // analysis kept), for the accelerations at a slice end (slice_end).
+  ConstraintLoads& loads_workspace();
   const JointSet& joints() const;
   // Articulated: hold these joints from now on (a subset of the present
   // ones: held rows released by a rank test) and restart the method.
