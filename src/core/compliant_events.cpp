@@ -36,6 +36,19 @@ CompliantCluster integrated_model(const CompliantGroup& G, const CompliantCluste
   c.params = model.params;
   return c;
 }
+
+// Group G's slice end at its integrator's present state. An articulated
+// group's loads are its integrator's own right-hand side
+// (ClusterIntegrator::present_loads), whose rates then serve the solver's
+// restart at that state: one evaluation where there were two. A compliant
+// group's are computed apart, as they always were (its trajectories stay
+// bit for bit).
+SliceEnd group_slice_end(CompliantGroup& G) {
+  if (!G.articulated) return slice_end(G.integ->state(), G.joints);
+  std::vector<Vec3> force, torque;
+  G.integ->present_loads(force, torque);
+  return slice_end(G.integ->state(), force, torque);
+}
 }  // namespace
 
 IntegratorOptions Simulation::integrator_options() const {
@@ -126,9 +139,7 @@ bool Simulation::begin_slice(int g, double t) {
     for (int d = 0; d < 3; ++d) G.shift[d] -= box_.length * std::floor(com[d] / box_.length);
   }
   const CompliantParams& cp = params_.compliant;
-  const JointSet& joints = G.joints;  // empty for compliant groups
-  const SliceEnd start =
-      follows ? std::move(G.end) : slice_end(G.integ->state(), joints, &G.integ->loads_workspace());
+  const SliceEnd start = follows ? std::move(G.end) : group_slice_end(G);
   const double longest = G.articulated ? params_.bonding.joint_slice : cp.slice;
   double D = std::min(longest, G.track_slice);
   bool track_halved = false;
@@ -207,7 +218,7 @@ bool Simulation::begin_slice(int g, double t) {
     // integrated motion by more than compliant.track_tolerance (stiff bonds:
     // a slice longer than a bond period).
     // The end's accelerations make the tracks quintic (core/track.hpp).
-    G.end = slice_end(G.integ->state(), joints, &G.integ->loads_workspace());
+    G.end = group_slice_end(G);
     G.end_cached = true;
     const double len = set_tracks(bodies_, G, start, t, G.end, t + D);
     bool good = len >= 0.5;

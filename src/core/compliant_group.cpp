@@ -111,9 +111,13 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const SliceEnd& ea, dou
 // omega' = I^-1 tau + (1/I_axial - 1/I_perp) (u' (u.L) + u (u'.L)), u' = omega x u,
 // and u'' = omega' x u + omega x u'.
 SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints, ConstraintLoads* loads) {
-  const std::vector<BodyMotion> motion = body_motions(c);
   std::vector<Vec3> force, torque;
   cluster_loads(c, joints, force, torque, loads);
+  return slice_end(c, force, torque);
+}
+
+SliceEnd slice_end(const CompliantCluster& c, const std::vector<Vec3>& force, const std::vector<Vec3>& torque) {
+  const std::vector<BodyMotion> motion = body_motions(c);
   SliceEnd e;
   e.bodies = c.bodies;
   e.center_accel.resize(c.bodies.size());

@@ -31,6 +31,8 @@ struct SliceEnd {
 };
 // `loads`: kept storage for the constraint loads (cluster_loads).
 SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints = {}, ConstraintLoads* loads = nullptr);
+// The same from the loads on every member (cluster_loads' force and torque).
+SliceEnd slice_end(const CompliantCluster& c, const std::vector<Vec3>& force, const std::vector<Vec3>& torque);
 
 struct CompliantGroup {
   bool alive = false;

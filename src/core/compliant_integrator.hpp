@@ -94,6 +94,7 @@ struct IntegratorStats {
   long nonlinear_failures = 0;  // convergence failures
   long error_test_failures = 0;
   long reinits = 0;
+  long rhs_reused = 0;          // of rhs_evals: served from ClusterIntegrator::present_loads
   double wall_seconds = 0.0;    // inside the solver calls of advance_to()
   double rhs_seconds = 0.0;     // of which inside the right-hand side (IntegratorOptions::time_rhs)
 
@@ -107,6 +108,7 @@ struct IntegratorStats {
     nonlinear_failures += o.nonlinear_failures;
     error_test_failures += o.error_test_failures;
     reinits += o.reinits;
+    rhs_reused += o.rhs_reused;
     wall_seconds += o.wall_seconds;
     rhs_seconds += o.rhs_seconds;
     return *this;
@@ -164,6 +166,13 @@ class ClusterIntegrator {
   // The right-hand side's constraint loads (their storage and sparse
   // analysis kept), for the accelerations at a slice end (slice_end).
   ConstraintLoads& loads_workspace();
+  // Every load on the members at the present state (the compliant field and
+  // the constraint loads: the right-hand side's own evaluation, torques about
+  // each centre with the gyroscopic term as in cluster_loads). The rates are
+  // kept for the solver's first right-hand side after a restart at this
+  // state (it would evaluate the same function at the same state): a slice
+  // end's accelerations then cost the one evaluation the restart needs.
+  void present_loads(std::vector<Vec3>& force, std::vector<Vec3>& torque);
   const JointSet& joints() const;
   // Articulated: hold these joints from now on (a subset of the present
   // ones: held rows released by a rank test) and restart the method.
