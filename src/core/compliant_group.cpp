@@ -110,9 +110,9 @@ double set_tracks(BodyStore& b, const CompliantGroup& g, const SliceEnd& ea, dou
 // omega = I^-1(u) L with I^-1 = 1/I_perp + (1/I_axial - 1/I_perp) u u^T, so
 // omega' = I^-1 tau + (1/I_axial - 1/I_perp) (u' (u.L) + u (u'.L)), u' = omega x u,
 // and u'' = omega' x u + omega x u'.
-SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints, ConstraintLoads* loads) {
+SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints) {
   std::vector<Vec3> force, torque;
-  cluster_loads(c, joints, force, torque, loads);
+  cluster_loads(c, joints, force, torque);
   return slice_end(c, force, torque);
 }
 

@@ -29,8 +29,7 @@ struct SliceEnd {
   std::vector<CompliantBody> bodies;
   std::vector<Vec3> center_accel, axis_accel;
 };
-// `loads`: kept storage for the constraint loads (cluster_loads).
-SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints = {}, ConstraintLoads* loads = nullptr);
+SliceEnd slice_end(const CompliantCluster& c, const JointSet& joints = {});
 // The same from the loads on every member (cluster_loads' force and torque).
 SliceEnd slice_end(const CompliantCluster& c, const std::vector<Vec3>& force, const std::vector<Vec3>& torque);
 

@@ -600,7 +600,6 @@ void ClusterIntegrator::reinit_at(double t) {
   impl_->restart();
 }
 MultiplierSolve& ClusterIntegrator::projection_workspace() { return impl_->projection_solve; }
-ConstraintLoads& ClusterIntegrator::loads_workspace() { return impl_->constraint_loads; }
 void ClusterIntegrator::present_loads(std::vector<Vec3>& force, std::vector<Vec3>& torque) {
   Impl& m = *impl_;
   m.memo_state.resize(m.n);

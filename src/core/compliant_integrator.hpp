@@ -66,8 +66,6 @@
 
 namespace ringsim {
 
-class ConstraintLoads;  // core/constrained_dynamics.hpp
-
 enum class Method { Bdf, Adams, ExplicitRk };
 enum class LinearSolver { Auto, Dense, Band };  // Bdf only
 
@@ -163,9 +161,6 @@ class ClusterIntegrator {
   // lasts while the joints do), for the cluster's other projections and
   // collision matrices (core/joint_impulses.hpp).
   MultiplierSolve& projection_workspace();
-  // The right-hand side's constraint loads (their storage and sparse
-  // analysis kept), for the accelerations at a slice end (slice_end).
-  ConstraintLoads& loads_workspace();
   // Every load on the members at the present state (the compliant field and
   // the constraint loads: the right-hand side's own evaluation, torques about
   // each centre with the gyroscopic term as in cluster_loads). The rates are

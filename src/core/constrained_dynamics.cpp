@@ -495,10 +495,9 @@ void ConstraintLoads::add(const std::vector<CompliantBody>& bodies, const JointS
 }
 
 void cluster_loads(const CompliantCluster& cluster, const JointSet& joints, std::vector<Vec3>& force,
-                   std::vector<Vec3>& torque, ConstraintLoads* loads) {
+                   std::vector<Vec3>& torque) {
   compliant_loads(cluster, body_motions(cluster), true, force, torque);
-  if (loads) loads->add(cluster.bodies, joints, force, torque);
-  else add_constraint_loads(cluster.bodies, joints, force, torque);
+  add_constraint_loads(cluster.bodies, joints, force, torque);
 }
 
 int internal_dof(const std::vector<CompliantBody>& bodies, const JointSet& joints) {

@@ -258,11 +258,8 @@ class ConstraintLoads {
 // loads of `joints`. The one definition of the accelerations, for the
 // integrator's right-hand side and the slice-error check (slice_end): with
 // no joints it is compliant_loads.
-// `loads`, when given, is kept storage for the constraint loads (the
-// integrator's own, ClusterIntegrator::loads_workspace: its sparse analysis
-// serves while the joints last); the same loads either way.
 void cluster_loads(const CompliantCluster& cluster, const JointSet& joints, std::vector<Vec3>& force,
-                   std::vector<Vec3>& torque, ConstraintLoads* loads = nullptr);
+                   std::vector<Vec3>& torque);
 
 // Internal degrees of freedom: velocity coordinates (3 per sphere, 6 per
 // linker) - rank(G) - 6 at the present pose. 0: the cluster can only move
