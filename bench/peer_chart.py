@@ -23,8 +23,9 @@ Two studies, each one command:
 ringsim's settings are its accuracy knob run.contact_tolerance; the peer's
 are dt, in single precision (ringsim_peer) and, when given, double
 (ringsim_peer64). Output in OUT: runs/*.jsonl (one JSON line per replicate,
-reused when complete, so an interrupted study resumes), <study>.csv and
-<study>.png (or --chart BASE: BASE.csv and BASE.png).
+appended as each run ends; the same command after a stop runs only the
+missing replicates), <study>.csv and <study>.png (or --chart BASE: BASE.csv
+and BASE.png).
 
 Usage:
   /usr/bin/python3 bench/peer_chart.py gas --ringsim build/ringsim \\
@@ -34,7 +35,9 @@ Usage:
       --ringsim build/ringsim --peer build/bench/peer/ringsim_peer --out OUT [-R 8] [--t-max 5000] \\
       [--joint welded|articulated]
 
-The runs go one at a time (--jobs 1) so that wall times are not shared.
+The runs go one at a time (--jobs 1) so that wall times are not shared; on
+a cluster node of its own, --jobs N with N cores (docs/PEER.md, "The full
+protocol on a cluster").
 """
 import argparse
 import concurrent.futures as cf
@@ -58,18 +61,64 @@ def run_one(cmd):
     raise RuntimeError(f"{' '.join(cmd)} failed ({p.returncode}): {p.stderr.strip()}")
 
 
+def read_runs(path):
+    """The replicates kept in path, by replicate index. A line cut short by a
+    crash is dropped (its replicate runs again) and the file rewritten
+    without it, so that appended lines start on a line of their own."""
+    if not path.exists():
+        return {}
+    done, text = {}, path.read_text()
+    lines = [line for line in text.splitlines() if line.strip()]
+    good = []
+    for line in lines:
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if row.get("replicate") is None or int(row["replicate"]) in done:
+            continue
+        done[int(row["replicate"])] = row
+        good.append(line)
+    if len(good) != len(lines) or (text and not text.endswith("\n")):
+        path.write_text("".join(line + "\n" for line in good))
+    return done
+
+
+def start(pool, path, make_cmd, reps):
+    """Submit the replicates among 0..reps-1 that path does not hold yet.
+    Returns what finish() needs: the kept rows and the runs under way."""
+    done = read_runs(path)
+    futures = {pool.submit(run_one, make_cmd(r)): r for r in range(reps) if r not in done}
+    return path, done, futures, reps
+
+
+def finish(path, done, futures, reps):
+    """Wait for the runs of start(), appending each replicate's JSON line the
+    moment it ends, so a stopped study (time limit, node failure, Ctrl-C)
+    loses only the runs under way, and the same command runs just the
+    replicates the file lacks. A failed run does not discard the others:
+    they are kept, then its error is raised. Returns replicates 0..reps-1."""
+    if futures:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        error = None
+        with path.open("a") as f:
+            for future in cf.as_completed(futures):
+                try:
+                    row = future.result()
+                except Exception as e:  # noqa: BLE001 (re-raised below)
+                    error = error or e
+                    continue
+                f.write(json.dumps(row) + "\n")
+                f.flush()
+                done[futures[future]] = row
+        if error is not None:
+            raise error
+    return [done[r] for r in range(reps)]
+
+
 def cached(pool, path, make_cmd, reps):
-    """Replicates 0..reps-1 of one setting, stored as JSON lines in path."""
-    rows = []
-    if path.exists():
-        rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-        if len(rows) >= reps:
-            return rows[:reps]
-    futures = [pool.submit(run_one, make_cmd(r)) for r in range(len(rows), reps)]
-    rows += [f.result() for f in futures]
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
-    return rows
+    """Replicates 0..reps-1 of one setting, kept as JSON lines in path."""
+    return finish(*start(pool, path, make_cmd, reps))
 
 
 def t_quantile(n):
@@ -134,19 +183,33 @@ def tag(a):
 
 
 def collect(a):
+    """Every setting's replicates. All settings' missing runs are submitted
+    at once, so that --jobs N keeps N cores busy across settings."""
     out = pathlib.Path(a.out)
-    rows = {}
-    with cf.ThreadPoolExecutor(max_workers=a.jobs) as pool:
+    rows, pending, errors = {}, [], []
+    pool = cf.ThreadPoolExecutor(max_workers=a.jobs)
+    try:
         for method, label, make in settings(a):
             path = out / "runs" / f"{tag(a)}__{method}__{label}.jsonl"
             if a.plot_only:
-                if not path.exists():
-                    continue
-                got = [json.loads(x) for x in path.read_text().splitlines() if x.strip()][: a.R]
-            else:
-                print(f"{method} {label}: {a.R} replicates", file=sys.stderr, flush=True)
-                got = cached(pool, path, make, a.R)
-            rows[(method, label)] = got
+                if path.exists():
+                    rows[(method, label)] = [row for r, row in sorted(read_runs(path).items()) if r < a.R]
+                continue
+            job = start(pool, path, make, a.R)
+            print(f"{method} {label}: {a.R} replicates, {len(job[2])} to run", file=sys.stderr, flush=True)
+            pending.append(((method, label), job))
+        for key, job in pending:
+            try:
+                rows[key] = finish(*job)
+            except RuntimeError as e:
+                errors.append(e)
+    except KeyboardInterrupt:
+        # Ctrl-C: the runs under way got it too; start no queued one.
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
+    if errors:
+        raise errors[0]
     return rows
 
 
