@@ -86,39 +86,46 @@ def read_runs(path):
 
 def start(pool, path, make_cmd, reps):
     """Submit the replicates among 0..reps-1 that path does not hold yet.
-    Returns what finish() needs: the kept rows and the runs under way."""
+    Returns the setting's job for gather(): its file, the kept rows by
+    replicate, the runs under way (future -> replicate) and reps."""
     done = read_runs(path)
     futures = {pool.submit(run_one, make_cmd(r)): r for r in range(reps) if r not in done}
     return path, done, futures, reps
 
 
-def finish(path, done, futures, reps):
-    """Wait for the runs of start(), appending each replicate's JSON line the
-    moment it ends, so a stopped study (time limit, node failure, Ctrl-C)
-    loses only the runs under way, and the same command runs just the
-    replicates the file lacks. A failed run does not discard the others:
-    they are kept, then its error is raised. Returns replicates 0..reps-1."""
-    if futures:
+def gather(jobs):
+    """Wait for the runs of every job of start(), in the order they end,
+    appending each replicate's JSON line to its setting's file the moment
+    it ends: a stopped study (time limit, node failure, Ctrl-C) loses only
+    the runs under way, and the same command runs just the replicates the
+    files lack. A failed run does not discard the others: they are kept,
+    then its error is raised. Returns each job's replicates 0..reps-1."""
+    owner = {f: job for job in jobs for f in job[2]}
+    total, error = len(owner), None
+    for n, future in enumerate(cf.as_completed(owner), 1):
+        path, done, futures, _ = owner[future]
+        r = futures[future]
+        try:
+            row = future.result()
+        except Exception as e:  # noqa: BLE001 (re-raised below)
+            error = error or e
+            print(f"[{n}/{total}] {path.stem} replicate {r}: FAILED ({e})", file=sys.stderr, flush=True)
+            continue
         path.parent.mkdir(parents=True, exist_ok=True)
-        error = None
         with path.open("a") as f:
-            for future in cf.as_completed(futures):
-                try:
-                    row = future.result()
-                except Exception as e:  # noqa: BLE001 (re-raised below)
-                    error = error or e
-                    continue
-                f.write(json.dumps(row) + "\n")
-                f.flush()
-                done[futures[future]] = row
-        if error is not None:
-            raise error
-    return [done[r] for r in range(reps)]
+            f.write(json.dumps(row) + "\n")
+        done[r] = row
+        wall = row.get("wall_seconds")
+        wall = f"{wall:.1f} s" if isinstance(wall, (int, float)) else "done"
+        print(f"[{n}/{total}] {path.stem} replicate {r}: {wall}", file=sys.stderr, flush=True)
+    if error is not None:
+        raise error
+    return [[done[r] for r in range(reps)] for _, done, _, reps in jobs]
 
 
 def cached(pool, path, make_cmd, reps):
     """Replicates 0..reps-1 of one setting, kept as JSON lines in path."""
-    return finish(*start(pool, path, make_cmd, reps))
+    return gather([start(pool, path, make_cmd, reps)])[0]
 
 
 def t_quantile(n):
@@ -186,7 +193,7 @@ def collect(a):
     """Every setting's replicates. All settings' missing runs are submitted
     at once, so that --jobs N keeps N cores busy across settings."""
     out = pathlib.Path(a.out)
-    rows, pending, errors = {}, [], []
+    rows, pending = {}, []
     pool = cf.ThreadPoolExecutor(max_workers=a.jobs)
     try:
         for method, label, make in settings(a):
@@ -198,18 +205,12 @@ def collect(a):
             job = start(pool, path, make, a.R)
             print(f"{method} {label}: {a.R} replicates, {len(job[2])} to run", file=sys.stderr, flush=True)
             pending.append(((method, label), job))
-        for key, job in pending:
-            try:
-                rows[key] = finish(*job)
-            except RuntimeError as e:
-                errors.append(e)
+        rows.update(zip([key for key, _ in pending], gather([job for _, job in pending])))
     except KeyboardInterrupt:
         # Ctrl-C: the runs under way got it too; start no queued one.
         pool.shutdown(wait=False, cancel_futures=True)
         raise
     pool.shutdown()
-    if errors:
-        raise errors[0]
     return rows
 
 
