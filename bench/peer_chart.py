@@ -40,6 +40,7 @@ a cluster node of its own, --jobs N with N cores (docs/PEER.md, "The full
 protocol on a cluster").
 """
 import argparse
+import collections
 import concurrent.futures as cf
 import csv
 import json
@@ -84,13 +85,15 @@ def read_runs(path):
     return done
 
 
+# One setting's runs: its file, the rows kept by replicate, the runs under
+# way (future -> replicate) and how many replicates it needs.
+Job = collections.namedtuple("Job", "path done futures reps")
+
+
 def start(pool, path, make_cmd, reps):
-    """Submit the replicates among 0..reps-1 that path does not hold yet.
-    Returns the setting's job for gather(): its file, the kept rows by
-    replicate, the runs under way (future -> replicate) and reps."""
+    """Submit the replicates among 0..reps-1 that path does not hold yet."""
     done = read_runs(path)
-    futures = {pool.submit(run_one, make_cmd(r)): r for r in range(reps) if r not in done}
-    return path, done, futures, reps
+    return Job(path, done, {pool.submit(run_one, make_cmd(r)): r for r in range(reps) if r not in done}, reps)
 
 
 def gather(jobs):
@@ -100,11 +103,10 @@ def gather(jobs):
     the runs under way, and the same command runs just the replicates the
     files lack. A failed run does not discard the others: they are kept,
     then its error is raised. Returns each job's replicates 0..reps-1."""
-    owner = {f: job for job in jobs for f in job[2]}
+    owner = {f: job for job in jobs for f in job.futures}
     total, error = len(owner), None
     for n, future in enumerate(cf.as_completed(owner), 1):
-        path, done, futures, _ = owner[future]
-        r = futures[future]
+        path, done, r = owner[future].path, owner[future].done, owner[future].futures[future]
         try:
             row = future.result()
         except Exception as e:  # noqa: BLE001 (re-raised below)
@@ -120,12 +122,7 @@ def gather(jobs):
         print(f"[{n}/{total}] {path.stem} replicate {r}: {wall}", file=sys.stderr, flush=True)
     if error is not None:
         raise error
-    return [[done[r] for r in range(reps)] for _, done, _, reps in jobs]
-
-
-def cached(pool, path, make_cmd, reps):
-    """Replicates 0..reps-1 of one setting, kept as JSON lines in path."""
-    return gather([start(pool, path, make_cmd, reps)])[0]
+    return [[job.done[r] for r in range(job.reps)] for job in jobs]
 
 
 def t_quantile(n):
@@ -203,7 +200,7 @@ def collect(a):
                     rows[(method, label)] = [row for r, row in sorted(read_runs(path).items()) if r < a.R]
                 continue
             job = start(pool, path, make, a.R)
-            print(f"{method} {label}: {a.R} replicates, {len(job[2])} to run", file=sys.stderr, flush=True)
+            print(f"{method} {label}: {a.R} replicates, {len(job.futures)} to run", file=sys.stderr, flush=True)
             pending.append(((method, label), job))
         rows.update(zip([key for key, _ in pending], gather([job for _, job in pending])))
     except KeyboardInterrupt:
@@ -361,6 +358,10 @@ def main():
     ap.add_argument("--chart", default=None,
                     help="write the chart to CHART.csv and CHART.png (default OUT/<study tag>)")
     a = ap.parse_args()
+    if a.jobs < 1:
+        sys.exit(f"peer_chart: --jobs {a.jobs}: runs at a time must be at least 1")
+    if a.R < 1:
+        sys.exit(f"peer_chart: -R {a.R}: replicates per setting must be at least 1")
     if a.study == "scenario" and a.scenario is None:
         sys.exit("peer_chart: the scenario study needs --scenario FILE")
     if a.study == "gas" and a.scenario is not None:

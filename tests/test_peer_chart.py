@@ -26,6 +26,11 @@ def maker(tag, fail=(), slow=(), sleep=0):
     return lambda r: [sys.executable, "-c", code, str(r)]
 
 
+def cached(pool, path, make_cmd, reps):
+    """One setting alone: its replicates 0..reps-1."""
+    return peer_chart.gather([peer_chart.start(pool, path, make_cmd, reps)])[0]
+
+
 def lines(path):
     return [json.loads(x) for x in path.read_text().splitlines()]
 
@@ -40,7 +45,7 @@ with tempfile.TemporaryDirectory() as d, cf.ThreadPoolExecutor(max_workers=2) as
 
     # A study whose replicate 2 fails: the other four are kept, then the error is raised.
     try:
-        peer_chart.cached(pool, path, maker("first", fail=[2]), 5)
+        cached(pool, path, maker("first", fail=[2]), 5)
         check(False, "a failed run must raise")
     except RuntimeError as e:
         check("failed (5)" in str(e), f"the error names the exit status: {e}")
@@ -50,17 +55,17 @@ with tempfile.TemporaryDirectory() as d, cf.ThreadPoolExecutor(max_workers=2) as
     # A crash mid-write leaves a cut line: it is dropped and its replicate runs again.
     with path.open("a") as f:
         f.write('{"replicate": 2, "run": "cut')
-    rows = peer_chart.cached(pool, path, maker("second"), 6)
+    rows = cached(pool, path, maker("second"), 6)
     check([r["replicate"] for r in rows] == list(range(6)), f"rows in replicate order: {rows}")
     check([r["run"] for r in rows] == ["first", "first", "second", "first", "first", "second"],
           f"only the missing replicates ran again: {rows}")
     check(len(lines(path)) == 6, "the file holds one whole line per replicate")
 
     # Complete: nothing runs (a maker that always fails would raise).
-    rows = peer_chart.cached(pool, path, maker("third", fail=range(6)), 6)
+    rows = cached(pool, path, maker("third", fail=range(6)), 6)
     check([r["run"] for r in rows].count("third") == 0, "a complete setting runs nothing")
     # Fewer asked than kept: the first R.
-    check([r["replicate"] for r in peer_chart.cached(pool, path, maker("x"), 3)] == [0, 1, 2],
+    check([r["replicate"] for r in cached(pool, path, maker("x"), 3)] == [0, 1, 2],
           "R below the kept count gives replicates 0..R-1")
 
     # Settings queued together (--jobs N): one setting's failure keeps every
